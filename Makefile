@@ -1,0 +1,29 @@
+# Two entry points: `make bench` (the main job on the embedded defaults) and `make test`.
+# Both create .venv/ when missing and install the project with torch pinned (constraints.txt).
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: bench test perf install clean
+
+$(STAMP): pyproject.toml constraints.txt
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade pip
+	$(BIN)/python -m pip install -c constraints.txt torch==2.13.0
+	$(BIN)/python -m pip install -c constraints.txt -e ".[test]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+bench: $(STAMP)
+	$(BIN)/fricbench bench
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -n 2 -q tests
+
+perf: $(STAMP)
+	$(BIN)/fricbench perf --json out/perf.json
+
+clean:
+	rm -rf $(VENV)

@@ -1,0 +1,1 @@
+"""fricbench: servo-friction compensation benchmark."""

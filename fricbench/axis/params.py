@@ -1,0 +1,310 @@
+"""Parameters of the servo feed axis: cascade controller, mechanics and optional effects.
+
+All values are SI (m, s, kg, N, A). The defaults are the paper-calibrated axis; where each
+number comes from is in ``docs/default_axis.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from fricbench._validation import (
+    check_choice,
+    check_finite,
+    check_int,
+    check_nonneg,
+    check_positive,
+    check_range,
+)
+from fricbench.axis import kernel as K
+from fricbench.friction import FrictionModel, Stribeck, make_friction
+
+__all__ = ["ControllerParams", "MechanicsParams", "Effects", "Axis"]
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """Cascade controller: position P with feedforward, velocity PI, current gain.
+
+    Parameters
+    ----------
+    ts : float
+        Control sample time, s (position and velocity loop, zero-order hold).
+    n_substeps : int
+        Fixed plant substeps per sample (integration step ``ts / n_substeps``).
+    kp : float
+        Position gain, 1/s.
+    kvff : float
+        Velocity feedforward fraction (1 = full).
+    kaff : float
+        Acceleration (inertia) feedforward fraction (1 = full ``M a_r``).
+    kv : float
+        Velocity PI proportional gain, A s/m (current per velocity error).
+    ti : float
+        Velocity PI integral time, s (0 disables the integral).
+    kt : float
+        Force constant of motor and screw on the table side, N/A.
+    i_max : float
+        Current saturation, A.
+    """
+
+    ts: float = 1.0e-3
+    n_substeps: int = 10
+    kp: float = 180.0
+    kvff: float = 1.12
+    kaff: float = 0.0
+    kv: float = 300.0
+    ti: float = 0.02
+    kt: float = 600.0
+    i_max: float = 15.0
+
+    def __post_init__(self) -> None:
+        check_range("ts", self.ts, 1e-5, 0.1, "s")
+        check_int("n_substeps", self.n_substeps, 1, 1000)
+        check_nonneg("kp", self.kp, "1/s")
+        check_range("kvff", self.kvff, 0.0, 2.0)
+        check_range("kaff", self.kaff, 0.0, 2.0)
+        check_nonneg("kv", self.kv, "A s/m")
+        check_nonneg("ti", self.ti, "s")
+        check_positive("kt", self.kt, "N/A")
+        check_positive("i_max", self.i_max, "A")
+
+
+@dataclass(frozen=True)
+class MechanicsParams:
+    """Rigid mechanics reduced to the table: ``M dv/dt = F - B v - F_f - F_load``.
+
+    Parameters
+    ----------
+    mass : float
+        Reflected mass of rotor, screw and table, kg.
+    damping : float
+        Linear viscous damping ``B``, N s/m.
+    load : float
+        Constant load force opposing positive motion (gravity on a vertical axis, cutting), N.
+    """
+
+    mass: float = 400.0
+    damping: float = 200.0
+    load: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_positive("mass", self.mass, "kg")
+        check_nonneg("damping", self.damping, "N s/m")
+        check_finite("load", self.load)
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Optional real effects, each off by default and one parameter away.
+
+    Parameters
+    ----------
+    backlash : float
+        Lost motion between motor and table, m (play operator).
+    measurement : {"motor", "table"}
+        Feedback sensor: rotary encoder on the motor (semi-closed loop) or linear scale on the
+        table (full closed loop). Logged positions are always the table's.
+    cogging_amplitude : float
+        Amplitude of the force ripple ``A sin(2 pi x / period + phase)``, N.
+    cogging_period : float
+        Spatial period of the ripple, m (e.g. screw lead / pole pairs).
+    cogging_phase : float
+        Phase of the ripple, rad.
+    friction_gradient : float
+        Linear change of the friction levels along the stroke, 1/m (``1 + grad x``).
+    friction_variation : float
+        Relative amplitude of a periodic friction variation along the stroke (0..0.9).
+    friction_variation_period : float
+        Its spatial period, m.
+    friction_variation_phase : float
+        Its phase, rad.
+    thermal_drift : float
+        Final thermal growth of the table position relative to the motor, m
+        (``d(t) = d_inf (1 - exp(-t/tau))``; seen when measuring on the motor side).
+    thermal_time_constant : float
+        Its time constant ``tau``, s.
+    quantization : float
+        Encoder step, m (0: ideal).
+    noise_std : float
+        Standard deviation of additive measurement noise, m.
+    delay_samples : int
+        Pure delay of the current command, samples (0..16).
+    """
+
+    backlash: float = 0.0
+    measurement: str = "motor"
+    cogging_amplitude: float = 0.0
+    cogging_period: float = 5.0e-3
+    cogging_phase: float = 0.0
+    friction_gradient: float = 0.0
+    friction_variation: float = 0.0
+    friction_variation_period: float = 0.05
+    friction_variation_phase: float = 0.0
+    thermal_drift: float = 0.0
+    thermal_time_constant: float = 600.0
+    quantization: float = 0.0
+    noise_std: float = 0.0
+    delay_samples: int = 0
+
+    def __post_init__(self) -> None:
+        check_range("backlash", self.backlash, 0.0, 1e-3, "m")
+        check_choice("measurement", self.measurement, ("motor", "table"))
+        check_nonneg("cogging_amplitude", self.cogging_amplitude, "N")
+        check_positive("cogging_period", self.cogging_period, "m")
+        check_finite("cogging_phase", self.cogging_phase)
+        check_range("friction_gradient", self.friction_gradient, -1.0, 1.0, "1/m")
+        check_range("friction_variation", self.friction_variation, 0.0, 0.9)
+        check_positive("friction_variation_period", self.friction_variation_period, "m")
+        check_finite("friction_variation_phase", self.friction_variation_phase)
+        check_range("thermal_drift", self.thermal_drift, -1e-3, 1e-3, "m")
+        check_positive("thermal_time_constant", self.thermal_time_constant, "s")
+        check_range("quantization", self.quantization, 0.0, 1e-4, "m")
+        check_range("noise_std", self.noise_std, 0.0, 1e-4, "m")
+        check_int("delay_samples", self.delay_samples, 0, K.DELAY_MAX)
+
+
+def _coerce(cls: type, value: Any, name: str) -> Any:
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, dict):
+        try:
+            return cls(**value)
+        except TypeError as exc:
+            raise TypeError(f"{name}: {exc}") from None
+    raise TypeError(f"{name}={value!r}: expected {cls.__name__} or a dict of its fields")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One servo feed axis: controller, mechanics, friction and effects.
+
+    Parameters
+    ----------
+    controller : ControllerParams
+    mechanics : MechanicsParams
+    friction : FrictionModel
+        Any registered friction model (default: the paper-calibrated Stribeck law).
+    effects : Effects
+
+    Examples
+    --------
+    >>> from fricbench.axis import Axis
+    >>> axis = Axis()                      # the paper-calibrated default axis
+    >>> axis.with_friction("lugre").friction.id
+    'lugre'
+    """
+
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    mechanics: MechanicsParams = field(default_factory=MechanicsParams)
+    friction: FrictionModel = field(default_factory=Stribeck)
+    effects: Effects = field(default_factory=Effects)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.controller, ControllerParams):
+            raise TypeError(f"controller={self.controller!r}: expected ControllerParams")
+        if not isinstance(self.mechanics, MechanicsParams):
+            raise TypeError(f"mechanics={self.mechanics!r}: expected MechanicsParams")
+        if not isinstance(self.friction, FrictionModel):
+            raise TypeError(f"friction={self.friction!r}: expected a FrictionModel")
+        if not isinstance(self.effects, Effects):
+            raise TypeError(f"effects={self.effects!r}: expected Effects")
+
+    # -- construction helpers -----------------------------------------------------------------
+    @classmethod
+    def from_dict(cls, spec: dict[str, Any]) -> Axis:
+        """Build from ``{"controller": {...}, "mechanics": {...}, "friction": {"id": ...},
+        "effects": {...}}`` (every section optional), as in the env TOML specs."""
+        unknown = set(spec) - {"controller", "mechanics", "friction", "effects"}
+        if unknown:
+            raise ValueError(f"axis spec: unknown sections {sorted(unknown)}; expected "
+                             "controller, mechanics, friction, effects")
+        fr = spec.get("friction", {"id": "stribeck"})
+        if isinstance(fr, FrictionModel):
+            friction = fr
+        else:
+            fr = dict(fr)
+            friction = make_friction(fr.pop("id", "stribeck"), **fr)
+        return cls(
+            controller=_coerce(ControllerParams, spec.get("controller", {}), "controller"),
+            mechanics=_coerce(MechanicsParams, spec.get("mechanics", {}), "mechanics"),
+            friction=friction,
+            effects=_coerce(Effects, spec.get("effects", {}), "effects"),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON/TOML-ready form accepted by :meth:`from_dict`."""
+        return {"controller": asdict(self.controller), "mechanics": asdict(self.mechanics),
+                "friction": self.friction.to_dict(), "effects": asdict(self.effects)}
+
+    def with_friction(self, friction: FrictionModel | str, **params: Any) -> Axis:
+        """A copy with another friction model (instance, or registered id plus parameters)."""
+        fr = friction if isinstance(friction, FrictionModel) else make_friction(friction, **params)
+        return replace(self, friction=fr)
+
+    def with_effects(self, **changes: Any) -> Axis:
+        """A copy with some effect parameters changed."""
+        return replace(self, effects=replace(self.effects, **changes))
+
+    def with_controller(self, **changes: Any) -> Axis:
+        """A copy with some controller parameters changed."""
+        return replace(self, controller=replace(self.controller, **changes))
+
+    def with_mechanics(self, **changes: Any) -> Axis:
+        """A copy with some mechanics parameters changed."""
+        return replace(self, mechanics=replace(self.mechanics, **changes))
+
+    def without_friction(self) -> Axis:
+        """A copy with zero friction (the linear axis, for oracles and TF fits)."""
+        return replace(self, friction=make_friction("viscous", fv=0.0))
+
+    # -- kernel packing ---------------------------------------------------------------------
+    def pack(self) -> np.ndarray:
+        """Parameter row of length ``kernel.N_PARAMS`` for the batched kernel."""
+        c, m, e = self.controller, self.mechanics, self.effects
+        f = self.friction.kernel_params()
+        p = np.zeros(K.N_PARAMS)
+        p[K.P_TS] = c.ts
+        p[K.P_NSUB] = c.n_substeps
+        p[K.P_M] = m.mass
+        p[K.P_B] = m.damping
+        p[K.P_KT] = c.kt
+        p[K.P_IMAX] = c.i_max
+        p[K.P_KP] = c.kp
+        p[K.P_KVFF] = c.kvff
+        p[K.P_KAFF] = c.kaff
+        p[K.P_KV] = c.kv
+        # the kernel integrates I in velocity units: I += Ts/Ti e_v
+        p[K.P_TI] = c.ti
+        p[K.P_FLOAD] = m.load
+        p[K.P_FKIND] = f["kind"]
+        p[K.P_FC] = f["fc"]
+        p[K.P_FS] = f["fs"]
+        p[K.P_VS] = f["vs"]
+        p[K.P_DELTA] = f["delta"]
+        p[K.P_FV] = f["fv"]
+        p[K.P_SIGMA0] = f["sigma0"]
+        p[K.P_SIGMA1] = f["sigma1"]
+        p[K.P_BACKLASH] = e.backlash
+        p[K.P_MEAS_TABLE] = 1.0 if e.measurement == "table" else 0.0
+        p[K.P_COG_AMP] = e.cogging_amplitude
+        p[K.P_COG_PERIOD] = e.cogging_period
+        p[K.P_COG_PHASE] = e.cogging_phase
+        p[K.P_PD_GRAD] = e.friction_gradient
+        p[K.P_PD_AMP] = e.friction_variation
+        p[K.P_PD_PERIOD] = e.friction_variation_period
+        p[K.P_PD_PHASE] = e.friction_variation_phase
+        p[K.P_TH_AMP] = e.thermal_drift
+        p[K.P_TH_TAU] = e.thermal_time_constant
+        p[K.P_QUANT] = e.quantization
+        p[K.P_NOISE] = e.noise_std
+        p[K.P_DELAY] = e.delay_samples
+        return p
+
+    @property
+    def needs_noise(self) -> bool:
+        """Whether simulations draw random numbers (measurement noise on)."""
+        return self.effects.noise_std > 0.0

@@ -1,0 +1,60 @@
+"""Pure friction force laws, compiled with numba.
+
+These scalar functions are the single source of the friction equations: the batched axis kernel
+(:mod:`fricbench.axis.kernel`) calls them inside its loop, and the friction model classes call them
+through :func:`steady_force` to evaluate curves for plots and fitting. SI units: velocity in m/s,
+force in N.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["stribeck_level", "steady_force", "KIND_STATIC", "KIND_LUGRE", "KIND_DAHL"]
+
+# Kernel codes of the friction dynamics. Static laws use the stick-slip-correct implicit update
+# (Kikuuwe et al. 2005); dynamic laws carry a bristle/pre-sliding state z (m).
+KIND_STATIC = 0
+KIND_LUGRE = 1
+KIND_DAHL = 2
+
+
+@numba.njit(cache=True, inline="always")
+def stribeck_level(speed: float, fc: float, fs: float, vs: float, delta: float) -> float:
+    """Sliding friction magnitude at ``speed >= 0`` (N), without the viscous part.
+
+    ``g(v) = fc + (fs - fc) * exp(-(|v|/vs)**delta)``; with ``vs <= 0`` the law is plain Coulomb
+    ``fc`` while sliding (``fs`` still holds at rest).
+    """
+    if vs <= 0.0:
+        return fc
+    # g(v) = fc + (fs - fc) exp(-(v/vs)^delta)
+    return fc + (fs - fc) * math.exp(-((speed / vs) ** delta))
+
+
+@numba.njit(cache=True)
+def _steady_force(v: np.ndarray, fc: float, fs: float, vs: float, delta: float, fv: float,
+                  out: np.ndarray) -> None:
+    for i in range(v.shape[0]):
+        vi = v[i]
+        if vi > 0.0:
+            out[i] = stribeck_level(vi, fc, fs, vs, delta) + fv * vi
+        elif vi < 0.0:
+            out[i] = -stribeck_level(-vi, fc, fs, vs, delta) + fv * vi
+        else:
+            out[i] = 0.0
+
+
+def steady_force(v: np.ndarray | float, fc: float, fs: float, vs: float, delta: float,
+                 fv: float) -> np.ndarray:
+    """Steady-state sliding friction ``F(v) = sgn(v) g(|v|) + fv v`` (N), vectorised over ``v``.
+
+    At ``v == 0`` the friction force is set-valued (anything in ``[-fs, fs]``); this returns 0.
+    """
+    arr = np.atleast_1d(np.asarray(v, dtype=np.float64)).ravel()
+    out = np.empty_like(arr)
+    _steady_force(arr, float(fc), float(fs), float(vs), float(delta), float(fv), out)
+    return out.reshape(np.shape(v))
