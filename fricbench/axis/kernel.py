@@ -49,50 +49,35 @@ RUNAWAY_VELOCITY = 100.0  # m/s: no feed axis moves this fast; the loop has gone
 RUNAWAY_POSITION = 1.0e3  # m
 
 
-def _measure(p: np.ndarray, s: np.ndarray, noise: float) -> None:
-    """Update the sensor readings of state ``s`` from the current mechanics."""
-    t = s[S_T]
+def _sensor(x_motor: float, x_play: float, t: float, th_amp: float, th_tau: float,
+            q: float, meas_table: bool, noise: float) -> tuple[float, float]:
+    """Feedback reading and logged (table) reading of one axis at time ``t``."""
     drift = 0.0
-    if p[P_TH_AMP] != 0.0:
+    if th_amp != 0.0:
         # d(t) = d_inf (1 - exp(-t / tau))
-        drift = p[P_TH_AMP] * (1.0 - math.exp(-t / p[P_TH_TAU]))
-    x_table = s[S_XPLAY] + drift
-    q = p[P_QUANT]
-    sig = p[P_NOISE] * noise
-    if p[P_MEAS_TABLE] > 0.5:
-        x_sensor = x_table
-    else:
-        x_sensor = s[S_X]
+        drift = th_amp * (1.0 - math.exp(-t / th_tau))
+    x_table = x_play + drift
+    x_sensor = x_table if meas_table else x_motor
     if q > 0.0:
         x_sensor = q * math.floor(x_sensor / q + 0.5)
         x_table = q * math.floor(x_table / q + 0.5)
+    return x_sensor + noise, x_table + noise
+
+
+def _measure(p: np.ndarray, s: np.ndarray, noise: float) -> None:
+    """Take a new sensor reading into state ``s`` (used at reset)."""
+    fb, logged = _sensor(s[S_X], s[S_XPLAY], s[S_T], p[P_TH_AMP], p[P_TH_TAU], p[P_QUANT],
+                         p[P_MEAS_TABLE] > 0.5, p[P_NOISE] * noise)
     s[S_XFB_PREV] = s[S_XFB]
-    s[S_XFB] = x_sensor + sig
-    s[S_XMEAS] = x_table + sig
+    s[S_XFB] = fb
+    s[S_XMEAS] = logged
 
 
-def _friction_scale(p: np.ndarray, x: float) -> float:
-    """Position-dependent friction factor ``1 + grad x + amp sin(2 pi x / period + phase)``."""
-    scale = 1.0 + p[P_PD_GRAD] * x
-    if p[P_PD_AMP] != 0.0:
-        scale += p[P_PD_AMP] * math.sin(2.0 * math.pi * x / p[P_PD_PERIOD] + p[P_PD_PHASE])
-    return scale
-
-
-def _substep(p: np.ndarray, s: np.ndarray, force_motor: float, h: float) -> float:
-    """Advance the mechanics of one axis by ``h``; return the friction force applied (N)."""
-    m = p[P_M]
-    x = s[S_X]
-    v = s[S_V]
-    kind = int(p[P_FKIND])
-    scale = _friction_scale(p, x)
-    fc = p[P_FC] * scale
-    fs = p[P_FS] * scale
-    f_ext = force_motor - p[P_FLOAD]
-    if p[P_COG_AMP] != 0.0:
-        # F_cog = A sin(2 pi x / lambda + phi)
-        f_ext -= p[P_COG_AMP] * math.sin(2.0 * math.pi * x / p[P_COG_PERIOD] + p[P_COG_PHASE])
-    damping = p[P_B] + p[P_FV]
+def _mechanics(x: float, v: float, z: float, f_ext: float, h: float, m: float, b: float,
+               kind: int, fc: float, fs: float, vs: float, delta: float, fv: float,
+               sigma0: float, sigma1: float) -> tuple[float, float, float]:
+    """One substep of ``M dv/dt = f_ext - B v - F_f``: returns ``(v_new, z_new, F_f)``."""
+    damping = b + fv
     if kind == KIND_STATIC:
         # Kikuuwe: v+ = v* - h Sgn(v+) F_c / (M + h b); stick when |v*| <= h F_s / (M + h b)
         m_eff = m + h * damping
@@ -101,91 +86,33 @@ def _substep(p: np.ndarray, s: np.ndarray, force_motor: float, h: float) -> floa
         if speed * m_eff <= h * max(fs, fc):
             v_new = 0.0
         else:
-            level = stribeck_level(speed, fc, fs, p[P_VS], p[P_DELTA])
+            level = stribeck_level(speed, fc, fs, vs, delta)
             v_new = v_star - math.copysign(h * level / m_eff, v_star)
             if v_new * v_star < 0.0:
                 v_new = 0.0
-            elif p[P_VS] > 0.0:
+            elif vs > 0.0:
                 # one midpoint correction of the velocity-dependent level: 2nd-order accurate
                 # in sliding, where the Stribeck curve changes within a few substeps
                 v_mid = 0.5 * (abs(v_new) + (abs(v) if v * v_star > 0.0 else 0.0))
-                level = stribeck_level(v_mid, fc, fs, p[P_VS], p[P_DELTA])
+                level = stribeck_level(v_mid, fc, fs, vs, delta)
                 v_new = v_star - math.copysign(h * level / m_eff, v_star)
                 if v_new * v_star < 0.0:
                     v_new = 0.0
-        f_fric = (m * v + h * f_ext - m * v_new) / h - p[P_B] * v_new
+        f_fric = (m * v + h * f_ext - m * v_new) / h - b * v_new
+        return v_new, z, f_fric
+    s1 = sigma1 if kind == KIND_LUGRE else 0.0
+    g = fc if kind == KIND_DAHL else stribeck_level(abs(v), fc, fs, vs, delta)
+    # dz/dt = v - sigma0 |v| z / g(v): exact for v frozen over the substep (stable for any h)
+    if v != 0.0 and g > 0.0:
+        z_ss = math.copysign(g / sigma0, v)
+        z_new = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(v) * h / g)
     else:
-        sigma0 = p[P_SIGMA0]
-        sigma1 = p[P_SIGMA1] if kind == KIND_LUGRE else 0.0
-        if kind == KIND_DAHL:
-            g = fc
-        else:
-            g = stribeck_level(abs(v), fc, fs, p[P_VS], p[P_DELTA])
-        z = s[S_Z]
-        # dz/dt = v - sigma0 |v| z / g(v): exact for v frozen over the substep (stable for any h)
-        if v != 0.0 and g > 0.0:
-            z_ss = math.copysign(g / sigma0, v)
-            z_new = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(v) * h / g)
-        else:
-            z_new = z + v * h
-        rate = (z_new - z) / h
-        # F = sigma0 z + sigma1 dz/dt + fv v; the sigma1 v part of dz/dt is taken implicitly
-        f_bristle = sigma0 * z_new + sigma1 * (rate - v)
-        v_new = (m * v + h * (f_ext - f_bristle)) / (m + h * (damping + sigma1))
-        s[S_Z] = z_new
-        f_fric = f_bristle + sigma1 * v_new + p[P_FV] * v_new
-    # trapezoidal position: exact when the velocity changes linearly over the substep
-    x_new = x + 0.5 * h * (v + v_new)
-    s[S_X] = x_new
-    s[S_V] = v_new
-    b = p[P_BACKLASH]
-    if b > 0.0:
-        # play operator: the table follows the motor only after the lost motion b is taken up
-        half = 0.5 * b
-        if x_new - s[S_XPLAY] > half:
-            s[S_XPLAY] = x_new - half
-        elif x_new - s[S_XPLAY] < -half:
-            s[S_XPLAY] = x_new + half
-    else:
-        s[S_XPLAY] = x_new
-    return f_fric
-
-
-def _control(p: np.ndarray, s: np.ndarray, xr: float, vr: float, ar: float, u_force: float,
-             u_off: float) -> float:
-    """Cascade controller of one axis at one sample; returns the applied current (A)."""
-    ts = p[P_TS]
-    xr_eff = xr + u_off
-    vr_eff = vr + (u_off - s[S_OFF_PREV]) / ts
-    s[S_OFF_PREV] = u_off
-    # v_cmd = Kp (x_r - x_fb) + kvff v_r
-    v_cmd = p[P_KP] * (xr_eff - s[S_XFB]) + p[P_KVFF] * vr_eff
-    v_fb = (s[S_XFB] - s[S_XFB_PREV]) / ts
-    e_v = v_cmd - v_fb
-    kt = p[P_KT]
-    # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
-    i_cmd = p[P_KV] * (e_v + s[S_I]) + (p[P_KAFF] * p[P_M] * ar + u_force) / kt
-    d = int(p[P_DELAY])
-    if d > 0:
-        i_app = s[S_DBUF + d - 1]
-        for j in range(d - 1, 0, -1):
-            s[S_DBUF + j] = s[S_DBUF + j - 1]
-        s[S_DBUF] = i_cmd
-    else:
-        i_app = i_cmd
-    i_max = p[P_IMAX]
-    saturated = False
-    if i_app > i_max:
-        i_app = i_max
-        saturated = e_v > 0.0
-    elif i_app < -i_max:
-        i_app = -i_max
-        saturated = e_v < 0.0
-    # clamping anti-windup: freeze I while the output is saturated in the direction of e_v
-    if p[P_TI] > 0.0 and not saturated:
-        s[S_I] += ts / p[P_TI] * e_v
-    s[S_IAPP] = i_app
-    return i_app
+        z_new = z + v * h
+    rate = (z_new - z) / h
+    # F = sigma0 z + sigma1 dz/dt + fv v; the sigma1 v part of dz/dt is taken implicitly
+    f_bristle = sigma0 * z_new + s1 * (rate - v)
+    v_new = (m * v + h * (f_ext - f_bristle)) / (m + h * (damping + s1))
+    return v_new, z_new, f_bristle + s1 * v_new + fv * v_new
 
 
 def _run_impl(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
@@ -196,36 +123,108 @@ def _run_impl(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray, ar: 
     for n in numba.prange(n_axes):
         p = P[n]
         s = S[n]
-        n_sub = int(p[P_NSUB])
+        # parameters and state live in locals over the whole run: the inner loop touches no
+        # arrays but the inputs and outputs
         ts = p[P_TS]
+        n_sub = int(p[P_NSUB])
         h = ts / n_sub
+        m, b, kt, i_max = p[P_M], p[P_B], p[P_KT], p[P_IMAX]
+        kp, kvff, kaff, kv, ti, f_load = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI], \
+            p[P_FLOAD]
+        kind = int(p[P_FKIND])
+        fc0, fs0, vs, delta, fv = p[P_FC], p[P_FS], p[P_VS], p[P_DELTA], p[P_FV]
+        sigma0, sigma1 = p[P_SIGMA0], p[P_SIGMA1]
+        backlash = p[P_BACKLASH]
+        cog_amp, cog_k, cog_ph = p[P_COG_AMP], 2.0 * math.pi / p[P_COG_PERIOD], p[P_COG_PHASE]
+        pd_grad, pd_amp = p[P_PD_GRAD], p[P_PD_AMP]
+        pd_k, pd_ph = 2.0 * math.pi / p[P_PD_PERIOD], p[P_PD_PHASE]
+        th_amp, th_tau, quant = p[P_TH_AMP], p[P_TH_TAU], p[P_QUANT]
+        meas_table = p[P_MEAS_TABLE] > 0.5
+        sig_noise = p[P_NOISE]
+        delay = int(p[P_DELAY])
+        ki = ts / ti if ti > 0.0 else 0.0
+        x, v, x_play, z = s[S_X], s[S_V], s[S_XPLAY], s[S_Z]
+        integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
+        x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
         for k in range(n_samples):
-            x_true[n, k] = s[S_XPLAY]
-            x_meas[n, k] = s[S_XMEAS]
-            i_app = _control(p, s, xr[n, k], vr[n, k], ar[n, k], u_force[n, k], u_off[n, k])
-            f_motor = p[P_KT] * i_app
+            x_true[n, k] = x_play
+            x_meas[n, k] = x_logged
+            # -- controller ----------------------------------------------------------------
+            off = u_off[n, k]
+            # v_cmd = Kp (x_r - x_fb) + kvff v_r   (the offset's rate enters the feedforward)
+            v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + (off - off_prev) / ts)
+            off_prev = off
+            e_v = v_cmd - (x_fb - x_fb_prev) / ts
+            # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
+            i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
+            if delay > 0:
+                i_app = s[S_DBUF + delay - 1]
+                for j in range(delay - 1, 0, -1):
+                    s[S_DBUF + j] = s[S_DBUF + j - 1]
+                s[S_DBUF] = i_cmd
+            else:
+                i_app = i_cmd
+            saturated = False
+            if i_app > i_max:
+                i_app = i_max
+                saturated = e_v > 0.0
+            elif i_app < -i_max:
+                i_app = -i_max
+                saturated = e_v < 0.0
+            # clamping anti-windup: freeze I while the output saturates in the direction of e_v
+            if not saturated:
+                integ += ki * e_v
+            f_motor = kt * i_app
+            # -- mechanics over n_sub substeps (zero-order hold on the force) -----------------
             f_sum = 0.0
             for _ in range(n_sub):
-                f_sum += _substep(p, s, f_motor, h)
-            s[S_T] += ts
+                scale = 1.0 + pd_grad * x
+                if pd_amp != 0.0:
+                    scale += pd_amp * math.sin(pd_k * x + pd_ph)
+                f_ext = f_motor - f_load
+                if cog_amp != 0.0:
+                    # F_cog = A sin(2 pi x / lambda + phi)
+                    f_ext -= cog_amp * math.sin(cog_k * x + cog_ph)
+                v_new, z, f_fric = _mechanics(x, v, z, f_ext, h, m, b, kind, fc0 * scale,
+                                              fs0 * scale, vs, delta, fv, sigma0, sigma1)
+                # trapezoidal position: exact when the velocity changes linearly over h
+                x += 0.5 * h * (v + v_new)
+                v = v_new
+                f_sum += f_fric
+                if backlash > 0.0:
+                    # play operator: the table follows only once the lost motion is taken up
+                    if x - x_play > 0.5 * backlash:
+                        x_play = x - 0.5 * backlash
+                    elif x - x_play < -0.5 * backlash:
+                        x_play = x + 0.5 * backlash
+                else:
+                    x_play = x
+            t += ts
             force[n, k] = f_motor
             friction[n, k] = f_sum / n_sub
-            vx = s[S_V]
-            if not (math.isfinite(vx) and math.isfinite(s[S_X]) and math.isfinite(s[S_I])):
+            if not (math.isfinite(v) and math.isfinite(x) and math.isfinite(integ)):
                 status[n] = STATUS_NONFINITE
                 break
-            if abs(vx) > RUNAWAY_VELOCITY or abs(s[S_X]) > RUNAWAY_POSITION:
+            if abs(v) > RUNAWAY_VELOCITY or abs(x) > RUNAWAY_POSITION:
                 status[n] = STATUS_RUNAWAY
                 break
-            _measure(p, s, noise[n, k])
+            # -- sensor reading for the next sample ------------------------------------------
+            x_fb_prev = x_fb
+            x_fb, x_logged = _sensor(x, x_play, t, th_amp, th_tau, quant, meas_table,
+                                     sig_noise * noise[n, k])
+        s[S_X], s[S_V], s[S_XPLAY], s[S_Z] = x, v, x_play, z
+        s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t
+        s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP] = x_logged, off_prev, i_app
 
 
-_measure = numba.njit(cache=True, inline="always")(_measure)
-_friction_scale = numba.njit(cache=True, inline="always")(_friction_scale)
-_substep = numba.njit(cache=True)(_substep)
-_control = numba.njit(cache=True)(_control)
-_run_serial = numba.njit(cache=True)(_run_impl)
-_run_parallel = numba.njit(cache=True, parallel=True)(_run_impl)
+# Fast-math without the no-NaN/no-inf assumptions, so that the divergence checks stay valid:
+# reciprocals, fused multiply-add and reassociation change results by rounding only.
+FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
+_sensor = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_sensor)
+_measure = numba.njit(cache=True)(_measure)
+_mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
+_run_serial = numba.njit(cache=True, fastmath=FASTMATH)(_run_impl)
+_run_parallel = numba.njit(cache=True, parallel=True, fastmath=FASTMATH)(_run_impl)
 
 PARALLEL_MIN_AXES = 256
 

@@ -52,7 +52,7 @@ class ControllerParams:
     """
 
     ts: float = 1.0e-3
-    n_substeps: int = 10
+    n_substeps: int = 5
     kp: float = 180.0
     kvff: float = 1.12
     kaff: float = 0.0

@@ -31,8 +31,14 @@ def stribeck_level(speed: float, fc: float, fs: float, vs: float, delta: float) 
     """
     if vs <= 0.0:
         return fc
+    r = speed / vs
+    # pow() is the slowest call in the kernel's inner loop; delta = 2 (the paper's) is common
+    e = r * r if delta == 2.0 else r**delta
+    if e > 40.0:
+        # exp(-40) < 5e-18: the Stribeck term is below float resolution of fc (cruising speed)
+        return fc
     # g(v) = fc + (fs - fc) exp(-(v/vs)^delta)
-    return fc + (fs - fc) * math.exp(-((speed / vs) ** delta))
+    return fc + (fs - fc) * math.exp(-e)
 
 
 @numba.njit(cache=True)

@@ -1,0 +1,266 @@
+"""``ServoAxisEnv``: a servo feed axis (or D coordinated axes) with friction, as a Gymnasium env."""
+
+from __future__ import annotations
+
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from fricbench.axis import Axis, AxisBatch
+from fricbench.axis import kernel as K
+from fricbench.gym.task import (
+    TaskConfig,
+    TrajectoryChoice,
+    apply_action,
+    check_action,
+    fill_observation,
+    n_features,
+    obs_scales,
+    preview_offsets,
+    reference_for,
+)
+from fricbench.trajectories import Reference
+
+__all__ = ["ServoAxisEnv"]
+
+
+class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
+    """## Description
+
+    A CNC feed axis in position mode (position P with velocity feedforward, velocity PI, current
+    gain with saturation, rigid mechanics with nonlinear friction and optional effects) follows a
+    reference trajectory. The agent adds a compensation to the loop each control sample (1 ms by
+    default) to cut the tracking error that friction causes at starts, stops and reversals.
+    With a two-axis reference (``circle``) the env drives X and Y together and the measure is the
+    contour error.
+
+    ## Action Space
+
+    ``Box(-1, 1, (D,), float32)``, one entry per axis. ``task.action == "force"``: compensation
+    force ``a * action_scale`` N added to the velocity-loop output (default 600 N per unit, above
+    the default breakaway force of 420 N). ``task.action == "offset"``: reference offset
+    ``a * action_scale`` m (pre-compensation). Out-of-range actions are clipped to [-1, 1];
+    NaN or inf raise ``ValueError``.
+
+    ## Observation Space
+
+    ``Box(-inf, inf, (D * F [+ 1],), float32)`` with ``F = 6 + 2 * preview`` features per axis,
+    each divided by its scale so that it is O(1): measured tracking error / ``error_scale``
+    (10 um), reference position / 0.1 m, reference velocity / 0.05 m/s, reference acceleration /
+    1 m/s^2, measured velocity / 0.05 m/s, previous action, then ``preview`` future reference
+    velocities and accelerations every ``preview_stride`` samples (the look-ahead a CNC has).
+    Two-axis envs append the contour error / ``error_scale``.
+
+    ## Rewards
+
+    ``r = -(e / reward.error_scale)^2 - reward.action_weight * |a|^2`` with ``e`` the measured
+    tracking error (contour error for two axes). ``info`` carries ``error_m`` (true tracking
+    error, m), ``measured_error_m``, ``reward_error``, ``reward_action``, ``force_N`` and
+    ``contour_error_m`` for two axes.
+
+    ## Starting State
+
+    At rest on the first reference sample; a trajectory drawn from ``task.trajectories`` with
+    the env's seeded generator, or given by ``reset(options={"trajectory": ...})`` (an id, a
+    ``{"id": ..., **params}`` table, or a :class:`~fricbench.trajectories.Reference`). Friction
+    parameters are redrawn per episode when ``task.randomize`` is set.
+
+    ## Episode End
+
+    Truncation at the last sample of the trajectory; no termination. A diverging simulation
+    (unstable user parameters) raises :class:`~fricbench.axis.SimulationDivergedError`.
+
+    ## Arguments
+
+    ``axis`` (:class:`~fricbench.axis.Axis`), ``task`` (:class:`~fricbench.gym.task.TaskConfig`),
+    ``render_mode`` (``"rgb_array"`` or ``"human"``). Registered ids are built from the TOML
+    specs in ``envs/``: ``gymnasium.make("fricbench/PaperAxis-v0")``.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+
+    def __init__(self, axis: Axis | None = None, task: TaskConfig | None = None,
+                 render_mode: str | None = None) -> None:
+        self.axis = Axis() if axis is None else axis
+        self.task = TaskConfig() if task is None else task
+        if not isinstance(self.axis, Axis):
+            raise TypeError(f"axis={axis!r}: expected an Axis")
+        if not isinstance(self.task, TaskConfig):
+            raise TypeError(f"task={task!r}: expected a TaskConfig")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r}: expected one of "
+                             f"{self.metadata['render_modes']} or None")
+        self.render_mode = render_mode
+        self.ts = self.axis.controller.ts
+        probe = reference_for(self.task.trajectories[0], self.ts, np.random.default_rng(0))
+        self.n_axes = probe.n_axes
+        for choice in self.task.trajectories[1:]:
+            d = reference_for(choice, self.ts, np.random.default_rng(0)).n_axes
+            if d != self.n_axes:
+                raise ValueError(f"task.trajectories mixes {self.n_axes}- and {d}-axis references")
+        self._nf = n_features(self.task.observation)
+        obs_dim = self.n_axes * self._nf + (1 if self.n_axes == 2 else 0)
+        self.observation_space = spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.n_axes,), np.float32)
+        self._batch = AxisBatch(self.axis, n=self.n_axes)
+        self._offsets = preview_offsets(self.task.observation).astype(np.int64)
+        d = self.n_axes
+        self._obs_rows = np.zeros((d, self._nf))
+        self._scales = obs_scales(self.task.observation)
+        self._rows = np.arange(d, dtype=np.int64)
+        self._kvec = np.zeros(d, dtype=np.int64)
+        self._out = tuple(np.empty((d, 1)) for _ in range(4))
+        self._act = np.zeros(d)
+        self._u_force = np.zeros((d, 1))
+        self._u_off = np.zeros((d, 1))
+        self._noise = np.zeros((d, 1))
+        self._prev_action = np.zeros(d)
+        self.reference: Reference | None = None
+        self._k = 0
+        self._history: dict[str, list[np.ndarray]] = {}
+        self._fig: Any = None
+
+    # -- episode ------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        options = options or {}
+        unknown = set(options) - {"trajectory"}
+        if unknown:
+            raise ValueError(f"reset options: unknown keys {sorted(unknown)}; expected 'trajectory'")
+        traj = options.get("trajectory")
+        rng = self.np_random
+        if traj is None:
+            choice = self.task.trajectories[int(rng.integers(len(self.task.trajectories)))]
+            ref = reference_for(choice, self.ts, rng)
+        elif isinstance(traj, Reference):
+            ref = traj
+        else:
+            ref = reference_for(TrajectoryChoice.parse(traj), self.ts, rng)
+        if ref.n_axes != self.n_axes:
+            raise ValueError(f"trajectory {ref.name!r} has {ref.n_axes} axes; this env drives "
+                             f"{self.n_axes}")
+        if abs(ref.ts - self.ts) > 1e-12:
+            raise ValueError(f"trajectory sampled at ts={ref.ts:g} s; the axis runs at {self.ts:g} s")
+        self.reference = ref
+        axis = self.task.randomize.sample(self.axis, rng)
+        for i in range(self.n_axes):
+            self._batch.set_params(i, axis)
+        self.current_axis = axis
+        pad = int(self._offsets[-1]) if self._offsets.size else 0
+        k_total = ref.n_samples
+        idx = np.minimum(np.arange(k_total + pad), k_total - 1)
+        rows = (lambda z: np.atleast_2d(z)[:, idx])
+        self._xr, self._vr, self._ar = rows(ref.x), rows(ref.v), rows(ref.a)
+        self._vr[:, k_total:] = 0.0
+        self._ar[:, k_total:] = 0.0
+        self._k = 0
+        self._prev_action[:] = 0.0
+        self._u_force[:] = 0.0
+        self._u_off[:] = 0.0
+        noise0 = rng.standard_normal(self.n_axes) if self.axis.needs_noise else np.zeros(self.n_axes)
+        self._batch.reset(self._xr[:, 0], self._vr[:, 0], noise0)
+        self._history = {"t": [], "x_ref": [], "x": [], "error": []}
+        self._record()
+        return self._observation(), {"trajectory": ref.name, "friction": axis.friction.to_dict()}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool,
+                                                 dict[str, Any]]:
+        if self.reference is None:
+            raise RuntimeError("call reset() before step()")
+        if self._k >= self.reference.n_samples - 1:
+            raise RuntimeError("episode is over (truncated): call reset()")
+        a = self._act
+        try:
+            a[:] = np.reshape(action, (self.n_axes,))
+        except (ValueError, TypeError):
+            a = check_action(action, (self.n_axes,))  # raises with the expected shape
+        target = self._u_force if self.task.action == "force" else self._u_off
+        if not apply_action(a, self.task.action_scale, target):
+            raise ValueError(f"action={np.asarray(action)!r}: contains NaN or inf")
+        k = self._k
+        if self.axis.needs_noise:
+            self._noise[:, 0] = self.np_random.standard_normal(self.n_axes)
+        b = self._batch
+        sl = slice(k, k + 1)
+        K.run_kernel(b.P, b.S, self._xr[:, sl], self._vr[:, sl], self._ar[:, sl],
+                     self._u_force, self._u_off, self._noise, self._out, b.status)
+        if b.status[0] or (self.n_axes > 1 and b.status.any()):
+            b.run(self._xr[:, sl], self._vr[:, sl], self._ar[:, sl])  # raises with the cause
+        self._k = k + 1
+        self._prev_action[:] = a
+        obs = self._observation()
+        err_meas = self._obs_rows[:, 0] * self.task.observation.error_scale
+        err_true = self._xr[:, k + 1] - b.true_position
+        info: dict[str, Any] = {"measured_error_m": err_meas.copy(), "error_m": err_true,
+                                "force_N": self._out[2][:, 0].copy()}
+        if self.n_axes == 2:
+            scored = self._contour_error(err_meas, k + 1)
+            info["contour_error_m"] = self._contour_error(err_true, k + 1)
+        else:
+            scored = float(err_meas[0])
+        r_err = -(scored / self.task.reward.error_scale) ** 2
+        r_act = -self.task.reward.action_weight * float(a @ a)
+        info["reward_error"] = r_err
+        info["reward_action"] = r_act
+        truncated = self._k >= self.reference.n_samples - 1
+        if self.render_mode is not None:
+            self._record()
+            if self.render_mode == "human":
+                self.render()
+        return obs, r_err + r_act, False, truncated, info
+
+    # -- observation --------------------------------------------------------------------------
+    def _contour_error(self, err: np.ndarray, k: int) -> float:
+        """Error component normal to the reference path (ISO 230-4 radial deviation on a
+        circle), m."""
+        vx, vy = self._vr[0, k], self._vr[1, k]
+        speed = float(np.hypot(vx, vy))
+        if speed < 1e-9:
+            return float(np.hypot(err[0], err[1]))
+        # e_c = e x t: component of the error normal to the tangent t = v / |v|
+        return float((err[0] * vy - err[1] * vx) / speed)
+
+    def _observation(self) -> np.ndarray:
+        self._kvec[:] = self._k
+        fill_observation(self._batch.S, self._batch.P, self._xr, self._vr, self._ar, self._rows,
+                         self._kvec, self._offsets, self._prev_action, self._scales,
+                         self._obs_rows)
+        if self.n_axes == 2:
+            err = self._obs_rows[:, 0] * self.task.observation.error_scale
+            ec = self._contour_error(err, self._k) / self.task.observation.error_scale
+            return np.append(self._obs_rows.ravel(), ec).astype(np.float32)
+        return self._obs_rows.ravel().astype(np.float32)
+
+    # -- rendering ----------------------------------------------------------------------------
+    def _record(self) -> None:
+        if self.render_mode is None:
+            return
+        k = self._k
+        self._history["t"].append(k * self.ts)
+        self._history["x_ref"].append(self._xr[:, k].copy())
+        self._history["x"].append(self._batch.position.copy())
+        self._history["error"].append(self._xr[:, k] - self._batch.true_position)
+
+    def render(self) -> np.ndarray | None:
+        """Reference vs actual position and the tracking error trace so far (um)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; pass render_mode='rgb_array'")
+            return None
+        from fricbench.gym.render import draw_episode
+
+        frame, self._fig = draw_episode(self._history, self._fig, self.render_mode == "human")
+        return frame
+
+    def close(self) -> None:
+        if self._fig is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._fig)
+            self._fig = None

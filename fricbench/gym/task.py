@@ -1,0 +1,299 @@
+"""What the envs share: the task settings, observation layout, reward and reference handling.
+
+The scalar env (:mod:`fricbench.gym.env`) and the native vector env (:mod:`fricbench.gym.vector`)
+both hold an :class:`~fricbench.axis.AxisBatch` (one row per simulated axis) and use the functions
+here to turn references and kernel readings into observations and rewards, so the two cannot
+drift apart.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields, replace
+from functools import lru_cache
+from typing import Any
+
+import numba
+import numpy as np
+
+from fricbench._validation import (
+    check_choice,
+    check_int,
+    check_nonneg,
+    check_positive,
+)
+from fricbench.axis import Axis
+from fricbench.axis.kernel import P_TS, S_XFB, S_XFB_PREV, S_XMEAS
+from fricbench.friction import make_friction
+from fricbench.trajectories import Reference, make_trajectory
+
+__all__ = ["TaskConfig", "ObservationConfig", "RewardConfig", "Randomization",
+           "TrajectoryChoice", "reference_for", "fill_observation", "apply_action", "n_features"]
+
+
+@dataclass(frozen=True)
+class ObservationConfig:
+    """Observation scaling and preview (every feature divided by its scale, so O(1)).
+
+    Parameters
+    ----------
+    error_scale : float
+        Tracking error scale, m (1e-5: 10 um -> 1).
+    position_scale : float
+        Reference position scale, m.
+    velocity_scale : float
+        Reference and measured velocity scale, m/s.
+    acceleration_scale : float
+        Reference acceleration scale, m/s^2.
+    preview : int
+        Number of future reference samples (velocity and acceleration) in the observation.
+    preview_stride : int
+        Samples between preview points (5 x 10 samples = 50 ms look-ahead at 1 ms).
+    """
+
+    error_scale: float = 1.0e-5
+    position_scale: float = 0.1
+    velocity_scale: float = 0.05
+    acceleration_scale: float = 1.0
+    preview: int = 5
+    preview_stride: int = 10
+
+    def __post_init__(self) -> None:
+        for name in ("error_scale", "position_scale", "velocity_scale", "acceleration_scale"):
+            check_positive(name, getattr(self, name))
+        check_int("preview", self.preview, 0, 100)
+        check_int("preview_stride", self.preview_stride, 1, 1000)
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """``r = -(e / error_scale)^2 - action_weight * |a|^2`` per step (``a`` in [-1, 1]).
+
+    Parameters
+    ----------
+    error_scale : float
+        Error that costs 1 per step, m.
+    action_weight : float
+        Weight of the squared scaled action.
+    """
+
+    error_scale: float = 1.0e-5
+    action_weight: float = 0.01
+
+    def __post_init__(self) -> None:
+        check_positive("reward.error_scale", self.error_scale, "m")
+        check_nonneg("reward.action_weight", self.action_weight)
+
+
+@dataclass(frozen=True)
+class Randomization:
+    """Per-episode friction randomisation: ``{parameter: [low, high]}`` drawn uniformly.
+
+    Keys are fields of the env's friction model (``fc``, ``vs``, ...) plus ``fs_ratio``
+    (``fs = fs_ratio * fc``) and ``scale`` (multiplies ``fc``, ``fs`` and ``fv``).
+    """
+
+    ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for key, rng in self.ranges.items():
+            if len(rng) != 2 or not (float(rng[0]) <= float(rng[1])):
+                raise ValueError(f"randomize.{key}={rng!r}: expected [low, high] with low <= high")
+
+    def sample(self, axis: Axis, rng: np.random.Generator) -> Axis:
+        """A copy of ``axis`` with freshly drawn friction parameters."""
+        if not self.ranges:
+            return axis
+        params = axis.friction.to_dict()
+        fid = params.pop("id")
+        draws = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in sorted(self.ranges.items())}
+        scale = draws.pop("scale", 1.0)
+        ratio = draws.pop("fs_ratio", None)
+        for key, val in draws.items():
+            if key not in params:
+                raise ValueError(f"randomize.{key}: friction model {fid!r} has no such parameter "
+                                 f"(has {sorted(params)})")
+            params[key] = val
+        if ratio is not None and "fs" in params:
+            params["fs"] = ratio * params["fc"]
+        for key in ("fc", "fs", "fv"):
+            if key in params:
+                params[key] *= scale
+        if "fs" in params and params["fs"] < params["fc"]:
+            params["fs"] = params["fc"]
+        return replace(axis, friction=make_friction(fid, **params))
+
+
+@dataclass(frozen=True)
+class TrajectoryChoice:
+    """A registered trajectory id and its parameters; ``seeded`` ones get a fresh seed each
+    episode (the ``random`` training mixture)."""
+
+    id: str
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def parse(cls, item: str | Mapping[str, Any] | TrajectoryChoice) -> TrajectoryChoice:
+        """Accept ``"m_serial"`` or ``{"id": "random", "duration": 10.0}``."""
+        if isinstance(item, TrajectoryChoice):
+            return item
+        if isinstance(item, str):
+            return cls(item)
+        if isinstance(item, Mapping) and "id" in item:
+            params = dict(item)
+            return cls(str(params.pop("id")), params)
+        raise TypeError(f"trajectory={item!r}: expected an id string or a table with 'id'")
+
+    @property
+    def seeded(self) -> bool:
+        return self.id == "random" and "seed" not in self.params
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    """Everything about an env besides the axis.
+
+    Parameters
+    ----------
+    trajectories : sequence of TrajectoryChoice
+        The set ``reset`` draws from (uniformly, with the env's seeded generator).
+    action : {"force", "offset"}
+        ``force``: compensation force at the velocity-loop output, ``action_scale`` N per unit;
+        ``offset``: reference offset (pre-compensation), ``action_scale`` m per unit.
+    action_scale : float
+        Physical size of a unit action (N or m).
+    observation : ObservationConfig
+    reward : RewardConfig
+    randomize : Randomization
+    """
+
+    trajectories: tuple[TrajectoryChoice, ...] = (TrajectoryChoice("m_serial"),)
+    action: str = "force"
+    action_scale: float = 600.0
+    observation: ObservationConfig = field(default_factory=ObservationConfig)
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    randomize: Randomization = field(default_factory=Randomization)
+
+    def __post_init__(self) -> None:
+        if not self.trajectories:
+            raise ValueError("trajectories=(): expected at least one trajectory")
+        check_choice("action", self.action, ("force", "offset"))
+        check_positive("action_scale", self.action_scale)
+
+    @classmethod
+    def from_dict(cls, spec: Mapping[str, Any]) -> TaskConfig:
+        """Build from the ``[task]`` table of an env TOML (keys as in the constructor)."""
+        allowed = {f.name for f in fields(cls)}
+        unknown = set(spec) - allowed
+        if unknown:
+            raise ValueError(f"task: unknown keys {sorted(unknown)}; expected {sorted(allowed)}")
+        kw: dict[str, Any] = dict(spec)
+        if "trajectories" in kw:
+            kw["trajectories"] = tuple(TrajectoryChoice.parse(t) for t in kw["trajectories"])
+        if "observation" in kw and not isinstance(kw["observation"], ObservationConfig):
+            kw["observation"] = ObservationConfig(**kw["observation"])
+        if "reward" in kw and not isinstance(kw["reward"], RewardConfig):
+            kw["reward"] = RewardConfig(**kw["reward"])
+        if "randomize" in kw and not isinstance(kw["randomize"], Randomization):
+            kw["randomize"] = Randomization({k: tuple(v) for k, v in kw["randomize"].items()})
+        return cls(**kw)
+
+
+@lru_cache(maxsize=64)
+def _cached_reference(id: str, items: tuple[tuple[str, Any], ...], ts: float) -> Reference:
+    return make_trajectory(id, ts=ts, **dict(items))
+
+
+def reference_for(choice: TrajectoryChoice, ts: float, rng: np.random.Generator) -> Reference:
+    """Generate (or fetch from cache) the reference of ``choice`` sampled at ``ts``."""
+    params = dict(choice.params)
+    if choice.seeded:
+        params["seed"] = int(rng.integers(0, 2**31 - 1))
+    items = tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in params.items()))
+    return _cached_reference(choice.id, items, float(ts))
+
+
+def n_features(cfg: ObservationConfig) -> int:
+    """Features per axis: error, x_ref, v_ref, a_ref, measured v, previous action, preview."""
+    return 6 + 2 * cfg.preview
+
+
+def preview_offsets(cfg: ObservationConfig) -> np.ndarray:
+    """Sample offsets of the preview points, shape (preview,)."""
+    return cfg.preview_stride * np.arange(1, cfg.preview + 1)
+
+
+@numba.njit(cache=True)
+def fill_observation(S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray, A: np.ndarray,
+                     rows: np.ndarray, k: np.ndarray, offsets: np.ndarray,
+                     prev_action: np.ndarray, scales: np.ndarray, out: np.ndarray) -> None:
+    """Fill ``out`` (R, n_features) with the scaled observation of the R axes of ``S``.
+
+    Axis ``r`` follows reference row ``rows[r]`` of the tables ``X, V, A`` at sample ``k[r]``.
+    Columns: ``e/e_s, x_r/x_s, v_r/v_s, a_r/a_s, v_meas/v_s, a_prev``, then the preview
+    ``v_r[k+o]/v_s`` and ``a_r[k+o]/a_s`` for each offset ``o``. ``scales`` holds
+    ``(e_s, x_s, v_s, a_s)``.
+    """
+    n_prev = offsets.shape[0]
+    for r in range(S.shape[0]):
+        i = rows[r]
+        kk = k[r]
+        # e = x_ref[k] - x_meas[k]
+        out[r, 0] = (X[i, kk] - S[r, S_XMEAS]) / scales[0]
+        out[r, 1] = X[i, kk] / scales[1]
+        out[r, 2] = V[i, kk] / scales[2]
+        out[r, 3] = A[i, kk] / scales[3]
+        out[r, 4] = (S[r, S_XFB] - S[r, S_XFB_PREV]) / P[r, P_TS] / scales[2]
+        out[r, 5] = prev_action[r]
+        for j in range(n_prev):
+            out[r, 6 + j] = V[i, kk + offsets[j]] / scales[2]
+            out[r, 6 + n_prev + j] = A[i, kk + offsets[j]] / scales[3]
+
+
+def obs_scales(cfg: ObservationConfig) -> np.ndarray:
+    """The ``scales`` argument of :func:`fill_observation`."""
+    return np.array([cfg.error_scale, cfg.position_scale, cfg.velocity_scale,
+                     cfg.acceleration_scale])
+
+
+@numba.njit(cache=True)
+def apply_action(action: np.ndarray, scale: float, out: np.ndarray) -> bool:
+    """Clip ``action`` to [-1, 1] in place and write ``action * scale`` to ``out[:, 0]``;
+    return False (writing nothing) if any entry is NaN or inf."""
+    for i in range(action.shape[0]):
+        if not math.isfinite(action[i]):
+            return False
+    for i in range(action.shape[0]):
+        a = min(1.0, max(-1.0, action[i]))
+        action[i] = a
+        out[i, 0] = a * scale
+    return True
+
+
+def check_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """Validate an action: NaN/inf raise ``ValueError``; out-of-range values are clipped."""
+    a = np.asarray(action, dtype=np.float64)
+    if a.shape != shape:
+        if a.size == int(np.prod(shape)):
+            a = a.reshape(shape)
+        else:
+            raise ValueError(f"action has shape {np.shape(action)}: expected {shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"action={np.asarray(action)!r}: contains NaN or inf")
+    return np.clip(a, -1.0, 1.0)
+
+
+def stack_references(refs: Sequence[Reference], pad: int) -> tuple[np.ndarray, ...]:
+    """Pad references to a common length (holding the last value) for vectorised look-up."""
+    length = max(r.n_samples for r in refs) + pad + 1
+    arrs = []
+    for key in ("x", "v", "a"):
+        table = np.empty((len(refs), length))
+        for i, r in enumerate(refs):
+            vals = getattr(r, key)
+            table[i, : r.n_samples] = vals
+            table[i, r.n_samples:] = vals[-1] if key == "x" else 0.0
+        arrs.append(table)
+    lengths = np.array([r.n_samples for r in refs], dtype=np.int64)
+    return arrs[0], arrs[1], arrs[2], lengths
