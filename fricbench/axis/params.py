@@ -54,7 +54,7 @@ class ControllerParams:
     ts: float = 1.0e-3
     n_substeps: int = 5
     kp: float = 180.0
-    kvff: float = 1.12
+    kvff: float = 1.0
     kaff: float = 0.0
     kv: float = 300.0
     ti: float = 0.02

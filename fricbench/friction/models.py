@@ -27,7 +27,7 @@ class Coulomb(FrictionModel):
         Coulomb (and breakaway) level, N, ``>= 0``.
     """
 
-    fc: float = 300.0
+    fc: float = 350.0
     id: ClassVar[str] = "coulomb"
 
     def __post_init__(self) -> None:
@@ -78,8 +78,8 @@ class Stribeck(FrictionModel):
         Viscous coefficient, N s/m, ``>= 0`` (0 in the paper, whose linear model holds ``B``).
     """
 
-    fc: float = 300.0
-    fs: float = 420.0
+    fc: float = 350.0
+    fs: float = 500.0
     vs: float = 2.0e-3
     delta: float = 2.0
     fv: float = 0.0
@@ -122,10 +122,10 @@ class LuGre(FrictionModel):
         Stribeck exponent, in ``[0.5, 4]``.
     """
 
-    fc: float = 300.0
-    fs: float = 420.0
+    fc: float = 350.0
+    fs: float = 500.0
     vs: float = 2.0e-3
-    sigma0: float = 1.5e8
+    sigma0: float = 1.75e8
     sigma1: float = 3.0e4
     fv: float = 0.0
     delta: float = 2.0
@@ -166,8 +166,8 @@ class Dahl(FrictionModel):
         Viscous coefficient, N s/m, ``>= 0``.
     """
 
-    fc: float = 300.0
-    sigma0: float = 1.5e8
+    fc: float = 350.0
+    sigma0: float = 1.75e8
     fv: float = 0.0
     id: ClassVar[str] = "dahl"
 

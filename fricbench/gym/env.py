@@ -40,16 +40,17 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ``Box(-1, 1, (D,), float32)``, one entry per axis. ``task.action == "force"``: compensation
     force ``a * action_scale`` N added to the velocity-loop output (default 600 N per unit, above
-    the default breakaway force of 420 N). ``task.action == "offset"``: reference offset
+    the default breakaway force of 500 N). ``task.action == "offset"``: reference offset
     ``a * action_scale`` m (pre-compensation). Out-of-range actions are clipped to [-1, 1];
     NaN or inf raise ``ValueError``.
 
     ## Observation Space
 
-    ``Box(-inf, inf, (D * F [+ 1],), float32)`` with ``F = 6 + 2 * preview`` features per axis,
+    ``Box(-inf, inf, (D * F [+ 1],), float32)`` with ``F = 7 + 2 * preview`` features per axis,
     each divided by its scale so that it is O(1): measured tracking error / ``error_scale``
     (10 um), reference position / 0.1 m, reference velocity / 0.05 m/s, reference acceleration /
-    1 m/s^2, measured velocity / 0.05 m/s, previous action, then ``preview`` future reference
+    1 m/s^2, measured velocity / 0.05 m/s, previous action, motor force of the last sample /
+    1000 N (drives report their current), then ``preview`` future reference
     velocities and accelerations every ``preview_stride`` samples (the look-ahead a CNC has).
     Two-axis envs append the contour error / ``error_scale``.
 

@@ -1,6 +1,8 @@
 """Environment specs: one TOML file per env id in ``envs/``, registered with Gymnasium.
 
-A spec file holds ``id`` (``fricbench/Name-vN``), ``description``, ``[axis]`` (sections
+A spec file holds ``id`` (``fricbench/Name-vN``), ``description``, ``benchmark`` (scored by
+``fricbench bench``, default true), ``fit_on`` (the env whose training setup compensators learn
+from, default itself: a different id makes the env a generalisation case), ``[axis]`` (sections
 ``controller``, ``mechanics``, ``friction``, ``effects`` as in :meth:`Axis.from_dict`) and
 ``[task]`` (:meth:`TaskConfig.from_dict`: trajectories, action, reward, observation, randomize).
 Dropping a new TOML file into ``envs/`` (or a folder named by ``FRICBENCH_ENV_PATH``) adds an
@@ -37,6 +39,7 @@ class EnvSpecFile:
     task: TaskConfig
     path: str
     benchmark: bool
+    fit_on: str
 
 
 def load_spec(path: str | Path) -> EnvSpecFile:
@@ -46,7 +49,7 @@ def load_spec(path: str | Path) -> EnvSpecFile:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ValueError(f"{path}: cannot read env spec: {exc}") from exc
-    unknown = set(data) - {"id", "description", "axis", "task", "benchmark"}
+    unknown = set(data) - {"id", "description", "axis", "task", "benchmark", "fit_on"}
     if unknown:
         raise ValueError(f"{path}: unknown top-level keys {sorted(unknown)}")
     env_id = data.get("id")
@@ -57,8 +60,11 @@ def load_spec(path: str | Path) -> EnvSpecFile:
         task = TaskConfig.from_dict(data.get("task", {}))
     except (TypeError, ValueError, KeyError) as exc:
         raise ValueError(f"{path}: {exc}") from exc
+    fit_on = data.get("fit_on", env_id)
+    if not isinstance(fit_on, str):
+        raise ValueError(f"{path}: fit_on={fit_on!r}: expected an env id")
     return EnvSpecFile(env_id, str(data.get("description", "")), axis, task, str(path),
-                       bool(data.get("benchmark", True)))
+                       bool(data.get("benchmark", True)), fit_on)
 
 
 def spec_files() -> list[Path]:

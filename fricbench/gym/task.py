@@ -24,7 +24,7 @@ from fricbench._validation import (
     check_positive,
 )
 from fricbench.axis import Axis
-from fricbench.axis.kernel import P_TS, S_XFB, S_XFB_PREV, S_XMEAS
+from fricbench.axis.kernel import P_KT, P_TS, S_IAPP, S_XFB, S_XFB_PREV, S_XMEAS
 from fricbench.friction import make_friction
 from fricbench.trajectories import Reference, make_trajectory
 
@@ -46,6 +46,8 @@ class ObservationConfig:
         Reference and measured velocity scale, m/s.
     acceleration_scale : float
         Reference acceleration scale, m/s^2.
+    force_scale : float
+        Motor force scale, N.
     preview : int
         Number of future reference samples (velocity and acceleration) in the observation.
     preview_stride : int
@@ -56,11 +58,13 @@ class ObservationConfig:
     position_scale: float = 0.1
     velocity_scale: float = 0.05
     acceleration_scale: float = 1.0
+    force_scale: float = 1000.0
     preview: int = 5
     preview_stride: int = 10
 
     def __post_init__(self) -> None:
-        for name in ("error_scale", "position_scale", "velocity_scale", "acceleration_scale"):
+        for name in ("error_scale", "position_scale", "velocity_scale", "acceleration_scale",
+                     "force_scale"):
             check_positive(name, getattr(self, name))
         check_int("preview", self.preview, 0, 100)
         check_int("preview_stride", self.preview_stride, 1, 1000)
@@ -215,8 +219,13 @@ def reference_for(choice: TrajectoryChoice, ts: float, rng: np.random.Generator)
 
 
 def n_features(cfg: ObservationConfig) -> int:
-    """Features per axis: error, x_ref, v_ref, a_ref, measured v, previous action, preview."""
-    return 6 + 2 * cfg.preview
+    """Features per axis: error, x_ref, v_ref, a_ref, measured v, previous action, motor force,
+    preview."""
+    return N_BASE_FEATURES + 2 * cfg.preview
+
+
+N_BASE_FEATURES = 7
+FEATURES = ("error", "x_ref", "v_ref", "a_ref", "v_meas", "prev_action", "motor_force")
 
 
 def preview_offsets(cfg: ObservationConfig) -> np.ndarray:
@@ -231,9 +240,10 @@ def fill_observation(S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray,
     """Fill ``out`` (R, n_features) with the scaled observation of the R axes of ``S``.
 
     Axis ``r`` follows reference row ``rows[r]`` of the tables ``X, V, A`` at sample ``k[r]``.
-    Columns: ``e/e_s, x_r/x_s, v_r/v_s, a_r/a_s, v_meas/v_s, a_prev``, then the preview
-    ``v_r[k+o]/v_s`` and ``a_r[k+o]/a_s`` for each offset ``o``. ``scales`` holds
-    ``(e_s, x_s, v_s, a_s)``.
+    Columns: ``e/e_s, x_r/x_s, v_r/v_s, a_r/a_s, v_meas/v_s, a_prev, F_motor/F_s``, then the
+    preview ``v_r[k+o]/v_s`` and ``a_r[k+o]/a_s`` for each offset ``o``. ``scales`` holds
+    ``(e_s, x_s, v_s, a_s, F_s)``; ``F_motor = kt i`` is the force of the last sample (drives
+    report their current).
     """
     n_prev = offsets.shape[0]
     for r in range(S.shape[0]):
@@ -246,15 +256,16 @@ def fill_observation(S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray,
         out[r, 3] = A[i, kk] / scales[3]
         out[r, 4] = (S[r, S_XFB] - S[r, S_XFB_PREV]) / P[r, P_TS] / scales[2]
         out[r, 5] = prev_action[r]
+        out[r, 6] = P[r, P_KT] * S[r, S_IAPP] / scales[4]
         for j in range(n_prev):
-            out[r, 6 + j] = V[i, kk + offsets[j]] / scales[2]
-            out[r, 6 + n_prev + j] = A[i, kk + offsets[j]] / scales[3]
+            out[r, 7 + j] = V[i, kk + offsets[j]] / scales[2]
+            out[r, 7 + n_prev + j] = A[i, kk + offsets[j]] / scales[3]
 
 
 def obs_scales(cfg: ObservationConfig) -> np.ndarray:
     """The ``scales`` argument of :func:`fill_observation`."""
     return np.array([cfg.error_scale, cfg.position_scale, cfg.velocity_scale,
-                     cfg.acceleration_scale])
+                     cfg.acceleration_scale, cfg.force_scale])
 
 
 @numba.njit(cache=True)

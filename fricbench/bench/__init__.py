@@ -1,0 +1,1 @@
+"""Benchmark runner, metrics, leaderboard writer and the perf benchmark."""

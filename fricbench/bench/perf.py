@@ -1,0 +1,153 @@
+"""``fricbench perf``: throughput of the env, the vector env and ``simulate``, with references
+measured in the same run (Gymnasium's Pendulum-v1 and python-control), because the machines
+are shared and noisy: the ratios are what to read."""
+
+from __future__ import annotations
+
+import time
+import tracemalloc
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+__all__ = ["measure_performance", "PERF_KEYS"]
+
+PERF_KEYS = ("env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
+             "simulate_samples_per_s", "python_control_samples_per_s")
+
+
+def _best_rate(work: Callable[[], int], repeats: int) -> float:
+    best = 0.0
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        n = work()
+        best = max(best, n / (time.perf_counter() - t0))
+    return best
+
+
+def _env_rate(env_id: str, steps: int, repeats: int) -> float:
+    import gymnasium as gym
+
+    env = gym.make(env_id)
+    zero = np.zeros(env.action_space.shape, dtype=np.float32)
+    env.reset(seed=0)
+    env.step(zero)
+
+    def work() -> int:
+        for _ in range(steps):
+            _, _, term, trunc, _ = env.step(zero)
+            if term or trunc:
+                env.reset()
+        return steps
+
+    rate = _best_rate(work, repeats)
+    env.close()
+    return rate
+
+
+def _vector_rate(num_envs: int, steps: int, repeats: int) -> tuple[float, float]:
+    import gymnasium as gym
+
+    tracemalloc.start()
+    venv = gym.make_vec("fricbench/PaperAxis-v0", num_envs=num_envs,
+                        vectorization_mode="vector_entry_point")
+    zero = np.zeros((num_envs, 1), dtype=np.float32)
+    venv.reset(seed=0)
+    venv.step(zero)
+
+    def work() -> int:
+        for _ in range(steps):
+            venv.step(zero)
+        return steps * num_envs
+
+    rate = _best_rate(work, repeats)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    venv.close()
+    return rate, peak / 2**20
+
+
+def _simulate_rate(repeats: int) -> float:
+    from fricbench.axis import Axis, simulate
+    from fricbench.trajectories import make_trajectory
+
+    ref = make_trajectory("reversal_sine")
+    axis = Axis()
+    simulate(axis, ref)
+    return _best_rate(lambda: (simulate(axis, ref), ref.n_samples)[1], repeats)
+
+
+def _python_control_rate(horizon: float) -> float:
+    """The default axis's loop with the same Stribeck friction as a python-control ``nlsys``.
+
+    python-control integrates continuous systems with ``solve_ivp``, so the sampled PI
+    controller is written in continuous form and the friction sign is smoothed with ``tanh``
+    (its solver cannot stick): the same loop as far as python-control can express it.
+    """
+    import control
+
+    from fricbench.axis import Axis
+
+    axis = Axis()
+    c, m, f = axis.controller, axis.mechanics, axis.friction.kernel_params()
+    gain = c.kt * c.kv
+    eps = 1e-4  # m/s: tanh smoothing velocity
+
+    def updfcn(t: float, x: np.ndarray, u: np.ndarray, params: dict[str, Any]) -> np.ndarray:
+        pos, vel, integ = x
+        xr, vr = u
+        e_v = c.kp * (xr - pos) + c.kvff * vr - vel
+        force = np.clip(gain * (e_v + integ / c.ti), -c.kt * c.i_max, c.kt * c.i_max)
+        speed = abs(vel)
+        level = f["fc"] + (f["fs"] - f["fc"]) * np.exp(-((speed / f["vs"]) ** f["delta"]))
+        fric = level * np.tanh(vel / eps) + f["fv"] * vel
+        return np.array([vel, (force - m.damping * vel - fric) / m.mass, e_v])
+
+    sys = control.nlsys(updfcn, None, inputs=["x_ref", "v_ref"], outputs=["x", "v", "I"],
+                        states=["x", "v", "I"], name="axis_pc")
+    t = np.arange(0.0, horizon, c.ts)
+    vref = 0.01 * np.sin(2 * np.pi * 2.0 * t)
+    xref = np.cumsum(vref) * c.ts
+    t0 = time.perf_counter()
+    control.input_output_response(sys, t, [xref, vref], X0=[0.0, 0.0, 0.0])
+    return t.size / (time.perf_counter() - t0)
+
+
+def measure_performance(quick: bool = False, log: Callable[[str], None] = print
+                        ) -> dict[str, float]:
+    """Measure every figure of :data:`PERF_KEYS` in one run; logs progress and memory."""
+    steps = 5000 if quick else 20000
+    repeats = 2 if quick else 3
+    log("perf: Pendulum-v1 reference ...")
+    pendulum = _env_rate("Pendulum-v1", steps, repeats)
+    log("perf: fricbench/PaperAxis-v0 through gymnasium.make ...")
+    env = _env_rate("fricbench/PaperAxis-v0", steps, repeats)
+    log("perf: native vector env, 4096 envs ...")
+    vec, peak_mb = _vector_rate(4096, 50 if quick else 200, repeats)
+    log("perf: simulate (reversal_sine, default axis) ...")
+    sim = _simulate_rate(3 if quick else 5)
+    log("perf: python-control input_output_response ...")
+    pc = _python_control_rate(0.05 if quick else 0.2)
+    result = {"env_steps_per_s": env, "pendulum_steps_per_s": pendulum,
+              "vector_env_steps_per_s": vec, "simulate_samples_per_s": sim,
+              "python_control_samples_per_s": pc}
+    log(f"perf: vector env peak memory at 4096 envs (tracemalloc): {peak_mb:.1f} MB "
+        f"(target < 500 MB)")
+    return result
+
+
+def format_report(r: dict[str, float]) -> str:
+    """Human-readable table with each figure against its target."""
+    rows = [
+        ("env_steps_per_s", r["env_steps_per_s"],
+         f"{r['env_steps_per_s'] / r['pendulum_steps_per_s']:.2f} x Pendulum (target >= 0.5)"),
+        ("pendulum_steps_per_s", r["pendulum_steps_per_s"], "reference"),
+        ("vector_env_steps_per_s", r["vector_env_steps_per_s"], "target >= 5,000,000"),
+        ("simulate_samples_per_s", r["simulate_samples_per_s"], "target >= 1,000,000"),
+        ("python_control_samples_per_s", r["python_control_samples_per_s"],
+         f"simulate is {r['simulate_samples_per_s'] / r['python_control_samples_per_s']:.0f} x "
+         "this (target >= 1000 x)"),
+    ]
+    width = max(len(k) for k, _, _ in rows)
+    return "\n".join(f"{k:<{width}}  {v:>14,.0f}  {note}" for k, v, note in rows)

@@ -1,0 +1,218 @@
+"""``fricbench`` command line: thin glue that parses arguments and calls library functions.
+
+Subcommands: ``list``, ``simulate``, ``perf``, ``bench``, and those contributed by the
+predictor (``reproduce``), compensator (``train``) and diagnosis (``diagnose``) packages.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["main"]
+
+# subcommand modules exposing add_parser(subparsers) and run(args) -> int
+_PLUGGED = ("fricbench.predictors.command", "fricbench.compensators.command",
+            "fricbench.sysid.diagnose.command")
+
+
+def _cmd_list(args: argparse.Namespace) -> int:
+    from fricbench.compensators import compensator_registry
+    from fricbench.friction import friction_registry
+    from fricbench.gym import env_ids
+    from fricbench.trajectories import trajectory_registry
+
+    sections = [("friction models", friction_registry.ids()),
+                ("trajectories", trajectory_registry.ids()),
+                ("environments", env_ids())]
+    try:
+        from fricbench.predictors import predictor_registry
+
+        sections.append(("predictors", predictor_registry.ids()))
+    except ImportError:
+        pass
+    sections.append(("compensators", compensator_registry.ids()))
+    for title, ids in sections:
+        print(f"{title}:")
+        for i in ids:
+            print(f"  {i}")
+    return 0
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from fricbench.axis import simulate
+    from fricbench.bench.leaderboard import atomic_write
+    from fricbench.gym import get_spec
+    from fricbench.trajectories import make_trajectory
+
+    spec = get_spec(args.env)
+    axis = spec.axis
+    ref = make_trajectory(args.trajectory, ts=axis.controller.ts)
+    res = simulate(axis, ref, seed=args.seed)
+    if args.csv:
+        x_ref, x, u = (np.atleast_2d(a) for a in (res.x_ref, res.x, res.u))
+        cols = ["t", "x_ref", "x", "u"]
+        data = [res.t, x_ref[0], x[0], u[0]]
+        for i in range(1, x_ref.shape[0]):
+            cols += [f"x_ref_{i}", f"x_{i}", f"u_{i}"]
+            data += [x_ref[i], x[i], u[i]]
+        lines = [",".join(cols)]
+        lines += [",".join(f"{v:.12g}" for v in row) for row in np.column_stack(data)]
+        atomic_write(args.csv, "\n".join(lines) + "\n")
+        print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (s, m, m, N)")
+    if args.plot:
+        _plot_run(res, f"{args.env} on {args.trajectory}", args.plot)
+        print(f"wrote {args.plot}")
+    err = np.atleast_2d(res.error) * 1e6
+    print(f"{args.env} / {args.trajectory}: max |e| = {np.abs(err).max():.2f} um, "
+          f"rms = {np.sqrt((err**2).mean()):.2f} um over {res.t[-1]:.2f} s")
+    return 0
+
+
+def _plot_run(res: object, title: str, path: str) -> None:
+    import io
+
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from fricbench.bench.leaderboard import atomic_write
+
+    fig = Figure(figsize=(9, 6), dpi=100)
+    FigureCanvasAgg(fig)
+    a1, a2 = fig.subplots(2, 1, sharex=True)
+    x_ref = np.atleast_2d(res.x_ref)  # type: ignore[attr-defined]
+    x = np.atleast_2d(res.x)  # type: ignore[attr-defined]
+    err = np.atleast_2d(res.error)  # type: ignore[attr-defined]
+    t = res.t  # type: ignore[attr-defined]
+    for i in range(x_ref.shape[0]):
+        a1.plot(t, x_ref[i] * 1e3, "k--", lw=1, label="reference" if i == 0 else None)
+        a1.plot(t, x[i] * 1e3, lw=1, label=f"measured axis {i}")
+        a2.plot(t, err[i] * 1e6, lw=1, label=f"axis {i}")
+    a1.set_ylabel("position [mm]")
+    a1.legend(fontsize=8)
+    a1.set_title(title)
+    a2.set_ylabel("tracking error [um]")
+    a2.set_xlabel("time [s]")
+    a2.grid(alpha=0.3)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    atomic_write(path, buf.getvalue())
+
+
+def _cmd_perf(args: argparse.Namespace) -> int:
+    from fricbench.bench.leaderboard import atomic_write
+    from fricbench.bench.perf import format_report, measure_performance
+
+    result = measure_performance(quick=args.quick)
+    print(format_report(result))
+    if args.json:
+        atomic_write(args.json, json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _git_commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, check=True, cwd=Path(__file__).resolve().parent)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, check=True,
+                               cwd=Path(__file__).resolve().parent).stdout.strip()
+        return out.stdout.strip() + ("+dirty" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from fricbench.bench.leaderboard import write_leaderboards
+    from fricbench.bench.runner import run_benchmark
+    from fricbench.compensators import compensator_registry
+    from fricbench.gym import env_ids, get_spec
+
+    envs = args.envs or env_ids(benchmark_only=True)
+    comps = args.compensators or compensator_registry.ids()
+    for e in envs:
+        get_spec(e)  # unknown ids fail here, with near matches
+    for c in comps:
+        compensator_registry.spec(c)
+    t0 = time.perf_counter()
+    records = list(run_benchmark(envs, comps, args.seeds, args.trajectories,
+                                 backend=args.backend, n_jobs=args.jobs, address=args.address))
+    command = "fricbench " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else \
+        "fricbench bench"
+    descriptions = {e: (get_spec(e).description, get_spec(e).fit_on) for e in envs}
+    paths = write_leaderboards(records, args.out, command, _git_commit(), descriptions)
+    n_failed = sum(r.status != "ok" for r in records)
+    for p in paths:
+        if p.suffix == ".md":
+            print(p.read_text(encoding="utf-8").split("## Error traces")[0])
+    print(f"{len(records)} runs ({n_failed} failed) in {time.perf_counter() - t0:.0f} s; "
+          f"wrote {len(paths)} files under {args.out}/")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every subcommand."""
+    parser = argparse.ArgumentParser(prog="fricbench", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("list", help="everything registered")
+    p.set_defaults(func=_cmd_list)
+
+    p = sub.add_parser("simulate", help="simulate an env's axis on a trajectory")
+    p.add_argument("--env", default="fricbench/PaperAxis-v0")
+    p.add_argument("--trajectory", default="m_serial")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--csv", help="write t,x_ref,x,u (s, m, m, N)")
+    p.add_argument("--plot", help="write a PNG of reference, position and error")
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser("perf", help="throughput benchmark against in-run references")
+    p.add_argument("--json", help="write the figures to this JSON file")
+    p.add_argument("--quick", action="store_true", help="shorter runs (noisier)")
+    p.set_defaults(func=_cmd_perf)
+
+    p = sub.add_parser("bench", help="run compensators on the benchmark envs; write leaderboards")
+    p.add_argument("--envs", nargs="+", help="env ids (default: every benchmark env)")
+    p.add_argument("--compensators", nargs="+", help="compensator ids (default: all)")
+    p.add_argument("--trajectories", nargs="+", help="override each env's trajectory set")
+    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    p.add_argument("--backend", choices=("joblib", "ray"), default="joblib")
+    p.add_argument("--address", help="Ray cluster address (default: a local instance)")
+    p.add_argument("--jobs", type=int, default=2, help="joblib workers")
+    p.add_argument("--out", default="leaderboards")
+    p.set_defaults(func=_cmd_bench)
+
+    for name in _PLUGGED:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``fricbench`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (ValueError, TypeError, KeyError, FileNotFoundError) as exc:
+        print(f"fricbench {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,171 @@
+"""The compensator API: one small interface for every compensation strategy.
+
+A compensator acts in the env loop::
+
+    comp = make_compensator("kalman").fit("fricbench/PaperAxis-v0", seed=0)
+    obs, info = env.reset(seed=s, options={"trajectory": "m_serial"})
+    comp.reset(EpisodeContext.from_env(env), seed=s)
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(comp.act(obs))
+
+What a compensator may know is what a CNC knows: the whole reference program (look-ahead), the
+nominal axis parameters (identified at commissioning: ``context.nominal_axis``), the env's
+observation and action conventions, and what it learned in :meth:`Compensator.fit` from the
+env's *training* setup (never the evaluation runs). Iterative methods (ILC) may rehearse the
+same reference on the machine before the scored run through ``context.rehearse``.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from fricbench.axis import Axis, SimulationResult
+from fricbench.gym.task import FEATURES, N_BASE_FEATURES, ObservationConfig, TaskConfig
+from fricbench.trajectories import Reference
+
+__all__ = ["Compensator", "EpisodeContext", "NotFittedError", "CompensatorError",
+           "feature_index"]
+
+
+class NotFittedError(RuntimeError):
+    """``act``/``reset`` called on a learning compensator before ``fit``."""
+
+
+class CompensatorError(RuntimeError):
+    """A compensator failed (bad output, corrupt policy file, ...)."""
+
+
+def feature_index(name: str, axis: int = 0, cfg: ObservationConfig | None = None) -> int:
+    """Column of feature ``name`` (see ``fricbench.gym.task.FEATURES``) of coordinate ``axis``.
+
+    Preview features are ``"preview_v"`` and ``"preview_a"`` (first preview point).
+    """
+    cfg = cfg or ObservationConfig()
+    per_axis = N_BASE_FEATURES + 2 * cfg.preview
+    if name in FEATURES:
+        col = FEATURES.index(name)
+    elif name == "preview_v":
+        col = N_BASE_FEATURES
+    elif name == "preview_a":
+        col = N_BASE_FEATURES + cfg.preview
+    else:
+        raise ValueError(f"feature {name!r}: expected one of {FEATURES + ('preview_v', 'preview_a')}")
+    return axis * per_axis + col
+
+
+@dataclass
+class EpisodeContext:
+    """What a compensator is told at the start of an episode.
+
+    Attributes
+    ----------
+    reference : Reference
+        The whole reference of the episode (a CNC knows its program ahead).
+    nominal_axis : Axis
+        Nominal (commissioning) parameters of the axis: controller, mass, damping; its friction
+        entry is the env's nominal friction, *not* the episode's randomised one.
+    task : TaskConfig
+        Action mode and scale, observation scales.
+    rehearse : callable or None
+        ``rehearse(u, seed) -> SimulationResult``: run the same reference on the machine with the
+        feedforward ``u`` (force in N or offset in m, shape (K,) or (D, K), per
+        ``task.action``), for iterative learning before the scored run. ``None`` when the
+        runner does not allow rehearsal.
+    """
+
+    reference: Reference
+    nominal_axis: Axis
+    task: TaskConfig
+    rehearse: Callable[[np.ndarray, int], SimulationResult] | None = None
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ts(self) -> float:
+        """Control sample time, s."""
+        return self.nominal_axis.controller.ts
+
+    @property
+    def n_axes(self) -> int:
+        """Coordinated axes D."""
+        return self.reference.n_axes
+
+
+class Compensator(abc.ABC):
+    """Base class: public ``act`` validates, subclasses write ``_act``.
+
+    Class attributes
+    ----------------
+    id : str
+        Registered id.
+    action_mode : {"force", "offset"}
+        The env action this compensator produces (force at the velocity-loop output, or a
+        reference offset for pre-compensation).
+    learns : bool
+        Whether :meth:`fit` must be called before use.
+    """
+
+    id: ClassVar[str] = ""
+    action_mode: ClassVar[str] = "force"
+    learns: ClassVar[bool] = False
+
+    def __init__(self) -> None:
+        self._context: EpisodeContext | None = None
+        self._fitted = not self.learns
+
+    # -- learning -----------------------------------------------------------------------------
+    def fit(self, env_id: str, *, seed: int = 0) -> Compensator:
+        """Learn from the training setup of ``env_id`` (its axis, training trajectories).
+
+        The default does nothing; learning compensators override it and set ``_fitted``.
+        """
+        self._fitted = True
+        return self
+
+    # -- episode ------------------------------------------------------------------------------
+    def reset(self, context: EpisodeContext, *, seed: int | None = None) -> None:
+        """Start an episode on ``context.reference``."""
+        if not isinstance(context, EpisodeContext):
+            raise TypeError(f"context={context!r}: expected an EpisodeContext")
+        if context.task.action != self.action_mode:
+            raise ValueError(f"{self.id}: produces {self.action_mode!r} actions but the env "
+                             f"expects {context.task.action!r}")
+        if not self._fitted:
+            raise NotFittedError(f"{self.id}: call fit() before reset()")
+        self._context = context
+        self._reset(context, seed)
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        """Action in [-1, 1] for ``observation``; raises on NaN/inf output."""
+        if self._context is None:
+            raise RuntimeError(f"{self.id}: call reset() before act()")
+        obs = np.asarray(observation, dtype=np.float64)
+        if not np.all(np.isfinite(obs)):
+            raise ValueError(f"{self.id}: observation contains NaN or inf")
+        action = np.asarray(self._act(obs), dtype=np.float64).reshape(self._context.n_axes)
+        if not np.all(np.isfinite(action)):
+            raise CompensatorError(f"{self.id}: produced a non-finite action {action!r}")
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+    def end_episode(self) -> None:
+        """Called after the scored episode (optional hook)."""
+
+    # -- to implement -------------------------------------------------------------------------
+    def _reset(self, context: EpisodeContext, seed: int | None) -> None:
+        """Prepare for the episode (precompute feedforward, reset filters, ...)."""
+
+    @abc.abstractmethod
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        """Action for a validated observation."""
+
+    # -- helpers for subclasses ---------------------------------------------------------------
+    @property
+    def context(self) -> EpisodeContext:
+        """The current episode's context."""
+        if self._context is None:
+            raise RuntimeError(f"{self.id}: no episode started")
+        return self._context
