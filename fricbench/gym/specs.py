@@ -22,6 +22,7 @@ import gymnasium as gym
 
 from fricbench.axis import Axis
 from fricbench.gym.task import TaskConfig
+from fricbench.registry import UnknownIdError
 
 __all__ = ["EnvSpecFile", "load_spec", "spec_files", "register_envs", "make_env",
            "make_vector_env", "env_ids"]
@@ -112,7 +113,7 @@ def get_spec(spec_id: str) -> EnvSpecFile:
 
         close = difflib.get_close_matches(spec_id, list(_SPECS), n=3, cutoff=0.4)
         hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
-        raise gym.error.NameNotFound(f"unknown fricbench env id {spec_id!r}{hint}")
+        raise UnknownIdError(f"unknown fricbench env id {spec_id!r}{hint}")
     return _SPECS[spec_id]
 
 
