@@ -115,106 +115,106 @@ def _mechanics(x: float, v: float, z: float, f_ext: float, h: float, m: float, b
     return v_new, z_new, f_bristle + s1 * v_new + fv * v_new
 
 
-def _run_impl(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
-              u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray, x_true: np.ndarray,
-              x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
+def _run_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
+              ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray,
+              x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
               status: np.ndarray) -> None:
-    n_axes, n_samples = xr.shape
-    for n in numba.prange(n_axes):
-        p = P[n]
-        s = S[n]
-        # parameters and state live in locals over the whole run: the inner loop touches no
-        # arrays but the inputs and outputs
-        ts = p[P_TS]
-        n_sub = int(p[P_NSUB])
-        h = ts / n_sub
-        m, b, kt, i_max = p[P_M], p[P_B], p[P_KT], p[P_IMAX]
-        kp, kvff, kaff, kv, ti, f_load = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI], \
-            p[P_FLOAD]
-        kind = int(p[P_FKIND])
-        fc0, fs0, vs, delta, fv = p[P_FC], p[P_FS], p[P_VS], p[P_DELTA], p[P_FV]
-        sigma0, sigma1 = p[P_SIGMA0], p[P_SIGMA1]
-        backlash = p[P_BACKLASH]
-        cog_amp, cog_k, cog_ph = p[P_COG_AMP], 2.0 * math.pi / p[P_COG_PERIOD], p[P_COG_PHASE]
-        pd_grad, pd_amp = p[P_PD_GRAD], p[P_PD_AMP]
-        pd_k, pd_ph = 2.0 * math.pi / p[P_PD_PERIOD], p[P_PD_PHASE]
-        th_amp, th_tau, quant = p[P_TH_AMP], p[P_TH_TAU], p[P_QUANT]
-        meas_table = p[P_MEAS_TABLE] > 0.5
-        sig_noise = p[P_NOISE]
-        delay = int(p[P_DELAY])
-        ki = ts / ti if ti > 0.0 else 0.0
-        x, v, x_play, z = s[S_X], s[S_V], s[S_XPLAY], s[S_Z]
-        integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
-        x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
-        for k in range(n_samples):
-            x_true[n, k] = x_play
-            x_meas[n, k] = x_logged
-            # -- controller ----------------------------------------------------------------
-            off = u_off[n, k]
-            # v_cmd = Kp (x_r - x_fb) + kvff v_r   (the offset's rate enters the feedforward)
-            v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + (off - off_prev) / ts)
-            off_prev = off
-            e_v = v_cmd - (x_fb - x_fb_prev) / ts
-            # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
-            i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
-            if delay > 0:
-                i_app = s[S_DBUF + delay - 1]
-                for j in range(delay - 1, 0, -1):
-                    s[S_DBUF + j] = s[S_DBUF + j - 1]
-                s[S_DBUF] = i_cmd
+    """Advance axis ``n`` over all samples (the body shared by the serial and parallel run)."""
+    n_samples = xr.shape[1]
+    p = P[n]
+    s = S[n]
+    # parameters and state live in locals over the whole run: the inner loop touches no
+    # arrays but the inputs and outputs
+    ts = p[P_TS]
+    n_sub = int(p[P_NSUB])
+    h = ts / n_sub
+    m, b, kt, i_max = p[P_M], p[P_B], p[P_KT], p[P_IMAX]
+    kp, kvff, kaff, kv, ti, f_load = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI], \
+        p[P_FLOAD]
+    kind = int(p[P_FKIND])
+    fc0, fs0, vs, delta, fv = p[P_FC], p[P_FS], p[P_VS], p[P_DELTA], p[P_FV]
+    sigma0, sigma1 = p[P_SIGMA0], p[P_SIGMA1]
+    backlash = p[P_BACKLASH]
+    cog_amp, cog_k, cog_ph = p[P_COG_AMP], 2.0 * math.pi / p[P_COG_PERIOD], p[P_COG_PHASE]
+    pd_grad, pd_amp = p[P_PD_GRAD], p[P_PD_AMP]
+    pd_k, pd_ph = 2.0 * math.pi / p[P_PD_PERIOD], p[P_PD_PHASE]
+    th_amp, th_tau, quant = p[P_TH_AMP], p[P_TH_TAU], p[P_QUANT]
+    meas_table = p[P_MEAS_TABLE] > 0.5
+    sig_noise = p[P_NOISE]
+    delay = int(p[P_DELAY])
+    ki = ts / ti if ti > 0.0 else 0.0
+    x, v, x_play, z = s[S_X], s[S_V], s[S_XPLAY], s[S_Z]
+    integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
+    x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
+    for k in range(n_samples):
+        x_true[n, k] = x_play
+        x_meas[n, k] = x_logged
+        # -- controller ----------------------------------------------------------------
+        off = u_off[n, k]
+        # v_cmd = Kp (x_r - x_fb) + kvff v_r   (the offset's rate enters the feedforward)
+        v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + (off - off_prev) / ts)
+        off_prev = off
+        e_v = v_cmd - (x_fb - x_fb_prev) / ts
+        # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
+        i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
+        if delay > 0:
+            i_app = s[S_DBUF + delay - 1]
+            for j in range(delay - 1, 0, -1):
+                s[S_DBUF + j] = s[S_DBUF + j - 1]
+            s[S_DBUF] = i_cmd
+        else:
+            i_app = i_cmd
+        saturated = False
+        if i_app > i_max:
+            i_app = i_max
+            saturated = e_v > 0.0
+        elif i_app < -i_max:
+            i_app = -i_max
+            saturated = e_v < 0.0
+        # clamping anti-windup: freeze I while the output saturates in the direction of e_v
+        if not saturated:
+            integ += ki * e_v
+        f_motor = kt * i_app
+        # -- mechanics over n_sub substeps (zero-order hold on the force) -----------------
+        f_sum = 0.0
+        for _ in range(n_sub):
+            scale = 1.0 + pd_grad * x
+            if pd_amp != 0.0:
+                scale += pd_amp * math.sin(pd_k * x + pd_ph)
+            f_ext = f_motor - f_load
+            if cog_amp != 0.0:
+                # F_cog = A sin(2 pi x / lambda + phi)
+                f_ext -= cog_amp * math.sin(cog_k * x + cog_ph)
+            v_new, z, f_fric = _mechanics(x, v, z, f_ext, h, m, b, kind, fc0 * scale,
+                                          fs0 * scale, vs, delta, fv, sigma0, sigma1)
+            # trapezoidal position: exact when the velocity changes linearly over h
+            x += 0.5 * h * (v + v_new)
+            v = v_new
+            f_sum += f_fric
+            if backlash > 0.0:
+                # play operator: the table follows only once the lost motion is taken up
+                if x - x_play > 0.5 * backlash:
+                    x_play = x - 0.5 * backlash
+                elif x - x_play < -0.5 * backlash:
+                    x_play = x + 0.5 * backlash
             else:
-                i_app = i_cmd
-            saturated = False
-            if i_app > i_max:
-                i_app = i_max
-                saturated = e_v > 0.0
-            elif i_app < -i_max:
-                i_app = -i_max
-                saturated = e_v < 0.0
-            # clamping anti-windup: freeze I while the output saturates in the direction of e_v
-            if not saturated:
-                integ += ki * e_v
-            f_motor = kt * i_app
-            # -- mechanics over n_sub substeps (zero-order hold on the force) -----------------
-            f_sum = 0.0
-            for _ in range(n_sub):
-                scale = 1.0 + pd_grad * x
-                if pd_amp != 0.0:
-                    scale += pd_amp * math.sin(pd_k * x + pd_ph)
-                f_ext = f_motor - f_load
-                if cog_amp != 0.0:
-                    # F_cog = A sin(2 pi x / lambda + phi)
-                    f_ext -= cog_amp * math.sin(cog_k * x + cog_ph)
-                v_new, z, f_fric = _mechanics(x, v, z, f_ext, h, m, b, kind, fc0 * scale,
-                                              fs0 * scale, vs, delta, fv, sigma0, sigma1)
-                # trapezoidal position: exact when the velocity changes linearly over h
-                x += 0.5 * h * (v + v_new)
-                v = v_new
-                f_sum += f_fric
-                if backlash > 0.0:
-                    # play operator: the table follows only once the lost motion is taken up
-                    if x - x_play > 0.5 * backlash:
-                        x_play = x - 0.5 * backlash
-                    elif x - x_play < -0.5 * backlash:
-                        x_play = x + 0.5 * backlash
-                else:
-                    x_play = x
-            t += ts
-            force[n, k] = f_motor
-            friction[n, k] = f_sum / n_sub
-            if not (math.isfinite(v) and math.isfinite(x) and math.isfinite(integ)):
-                status[n] = STATUS_NONFINITE
-                break
-            if abs(v) > RUNAWAY_VELOCITY or abs(x) > RUNAWAY_POSITION:
-                status[n] = STATUS_RUNAWAY
-                break
-            # -- sensor reading for the next sample ------------------------------------------
-            x_fb_prev = x_fb
-            x_fb, x_logged = _sensor(x, x_play, t, th_amp, th_tau, quant, meas_table,
-                                     sig_noise * noise[n, k])
-        s[S_X], s[S_V], s[S_XPLAY], s[S_Z] = x, v, x_play, z
-        s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t
-        s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP] = x_logged, off_prev, i_app
+                x_play = x
+        t += ts
+        force[n, k] = f_motor
+        friction[n, k] = f_sum / n_sub
+        if not (math.isfinite(v) and math.isfinite(x) and math.isfinite(integ)):
+            status[n] = STATUS_NONFINITE
+            break
+        if abs(v) > RUNAWAY_VELOCITY or abs(x) > RUNAWAY_POSITION:
+            status[n] = STATUS_RUNAWAY
+            break
+        # -- sensor reading for the next sample ------------------------------------------
+        x_fb_prev = x_fb
+        x_fb, x_logged = _sensor(x, x_play, t, th_amp, th_tau, quant, meas_table,
+                                 sig_noise * noise[n, k])
+    s[S_X], s[S_V], s[S_XPLAY], s[S_Z] = x, v, x_play, z
+    s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t
+    s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP] = x_logged, off_prev, i_app
 
 
 # Fast-math without the no-NaN/no-inf assumptions, so that the divergence checks stay valid:
@@ -223,8 +223,30 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 _sensor = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_sensor)
 _measure = numba.njit(cache=True)(_measure)
 _mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
-_run_serial = numba.njit(cache=True, fastmath=FASTMATH)(_run_impl)
-_run_parallel = numba.njit(cache=True, parallel=True, fastmath=FASTMATH)(_run_impl)
+_run_axis = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_run_axis)
+
+
+# Two drivers, two distinct functions: numba's on-disk cache is keyed by function, so one
+# function compiled twice (serial and parallel) would share a cache entry and the serial
+# dispatcher could load the threaded build, paying a thread wake-up on every env step.
+@numba.njit(cache=True, fastmath=FASTMATH)
+def _run_serial(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
+                u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray, x_true: np.ndarray,
+                x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
+                status: np.ndarray) -> None:
+    for n in range(xr.shape[0]):
+        _run_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force, friction,
+                  status)
+
+
+@numba.njit(cache=True, parallel=True, fastmath=FASTMATH)
+def _run_parallel(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
+                  ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray,
+                  x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray,
+                  friction: np.ndarray, status: np.ndarray) -> None:
+    for n in numba.prange(xr.shape[0]):
+        _run_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force, friction,
+                  status)
 
 PARALLEL_MIN_AXES = 256
 
