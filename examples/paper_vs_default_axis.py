@@ -11,12 +11,12 @@ import control
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from fricbench.axis import closed_loop, simulate  # noqa: E402
-from fricbench.gym import get_spec  # noqa: E402
-from fricbench.trajectories import make_trajectory  # noqa: E402
+from fricbench.axis import closed_loop, simulate
+from fricbench.gym import get_spec
+from fricbench.trajectories import make_trajectory
 
 PAPER = control.tf([1351.0, 4.952e5], [1.0, 1109.0, 4.952e5])
 
@@ -55,7 +55,8 @@ def main(out: str = "docs/img/paper_vs_default_axis.png") -> None:
     lin = simulate(axis.without_friction(), ref)
     tf_err = ref.x - control.forced_response(PAPER, T=ref.t, U=ref.x).outputs
     print(f"M-serial: max |e| {res.max_error * 1e6:.1f} um, linear part "
-          f"{lin.max_error * 1e6:.1f} um, friction spike {np.max(np.abs(res.x_true - lin.x_true)) * 1e6:.1f} um; "
+          f"{lin.max_error * 1e6:.1f} um, friction spike "
+          f"{np.max(np.abs(res.x_true - lin.x_true)) * 1e6:.1f} um; "
           f"paper's eq. 22 on our M-serial: {np.max(np.abs(tf_err)) * 1e6:.1f} um")
     cur = make_trajectory("curve")
     rc = simulate(axis, cur)

@@ -9,11 +9,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from fricbench.axis import Axis, simulate  # noqa: E402
-from fricbench.trajectories import make_trajectory  # noqa: E402
+from fricbench.axis import Axis, simulate
+from fricbench.trajectories import make_trajectory
 
 
 def main(out: str = "docs/img/quadrant_glitch.png") -> None:

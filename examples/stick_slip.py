@@ -10,11 +10,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from fricbench.axis import Axis, simulate  # noqa: E402
-from fricbench.trajectories import Reference  # noqa: E402
+from fricbench.axis import Axis, simulate
+from fricbench.trajectories import Reference
 
 
 def main(out: str = "docs/img/stick_slip.png") -> None:

@@ -9,12 +9,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from fricbench.axis import Axis, simulate  # noqa: E402
-from fricbench.friction import make_friction  # noqa: E402
-from fricbench.trajectories import Reference  # noqa: E402
+from fricbench.axis import Axis, simulate
+from fricbench.friction import make_friction
+from fricbench.trajectories import Reference
 
 
 def main(out: str = "docs/img/stribeck_curve.png") -> None:

@@ -5,8 +5,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["check_finite", "check_positive", "check_nonneg", "check_range", "check_int",
-           "check_choice"]
+__all__ = [
+    "check_choice",
+    "check_finite",
+    "check_int",
+    "check_nonneg",
+    "check_positive",
+    "check_range",
+]
 
 
 def check_finite(name: str, value: Any) -> float:

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
-__all__ = ["Registry", "RegistryEntry", "UnknownIdError", "DuplicateIdError", "load_entry_point"]
+__all__ = ["DuplicateIdError", "Registry", "RegistryEntry", "UnknownIdError", "load_entry_point"]
 
 T = TypeVar("T")
 

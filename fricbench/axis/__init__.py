@@ -5,6 +5,16 @@ from fricbench.axis.linear import closed_loop, closed_loop_tf_continuous
 from fricbench.axis.params import Axis, ControllerParams, Effects, MechanicsParams
 from fricbench.axis.simulate import SimulationResult, simulate, simulate_many
 
-__all__ = ["Axis", "ControllerParams", "MechanicsParams", "Effects", "AxisBatch",
-           "SimulationDivergedError", "SimulationResult", "simulate", "simulate_many",
-           "closed_loop", "closed_loop_tf_continuous"]
+__all__ = [
+           "Axis",
+           "AxisBatch",
+           "ControllerParams",
+           "Effects",
+           "MechanicsParams",
+           "SimulationDivergedError",
+           "SimulationResult",
+           "closed_loop",
+           "closed_loop_tf_continuous",
+           "simulate",
+           "simulate_many",
+]

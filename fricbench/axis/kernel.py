@@ -303,15 +303,15 @@ def initial_state(P: np.ndarray, x0: np.ndarray, v0: np.ndarray, noise: np.ndarr
 
 
 __all__ = [
-    "run_kernel",
-    "initial_state",
+    "DELAY_MAX",
+    "KIND_DAHL",
+    "KIND_LUGRE",
+    "KIND_STATIC",
     "N_PARAMS",
     "N_STATE",
-    "DELAY_MAX",
-    "STATUS_OK",
     "STATUS_NONFINITE",
+    "STATUS_OK",
     "STATUS_RUNAWAY",
-    "KIND_STATIC",
-    "KIND_LUGRE",
-    "KIND_DAHL",
+    "initial_state",
+    "run_kernel",
 ]

@@ -7,7 +7,7 @@ import numpy as np
 
 from fricbench.axis.params import Axis
 
-__all__ = ["closed_loop", "closed_loop_tf_continuous", "plant", "controller"]
+__all__ = ["closed_loop", "closed_loop_tf_continuous", "controller", "plant"]
 
 
 def plant(axis: Axis, discrete: bool = True) -> control.StateSpace:

@@ -22,7 +22,7 @@ from fricbench._validation import (
 from fricbench.axis import kernel as K
 from fricbench.friction import FrictionModel, Stribeck, make_friction
 
-__all__ = ["ControllerParams", "MechanicsParams", "Effects", "Axis"]
+__all__ = ["Axis", "ControllerParams", "Effects", "MechanicsParams"]
 
 
 @dataclass(frozen=True)

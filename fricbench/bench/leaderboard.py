@@ -19,8 +19,14 @@ import numpy as np
 
 from fricbench.bench.runner import EpisodeRecord
 
-__all__ = ["CSV_COLUMNS", "write_leaderboards", "atomic_write", "env_file_stem",
-           "summarise", "TARGETS"]
+__all__ = [
+    "CSV_COLUMNS",
+    "TARGETS",
+    "atomic_write",
+    "env_file_stem",
+    "summarise",
+    "write_leaderboards",
+]
 
 CSV_COLUMNS = ("env", "compensator", "trajectory", "seed", "status", "max_um", "rms_um",
                "reversal_peak_um", "circular_deviation_um", "reversal_spike_um",

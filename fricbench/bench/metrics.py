@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RunMetrics", "reversal_indices", "score_run", "REVERSAL_WINDOW_S"]
+__all__ = ["REVERSAL_WINDOW_S", "RunMetrics", "reversal_indices", "score_run"]
 
 REVERSAL_WINDOW_S = 0.05  # s: the window after a reversal in which its peak error is taken
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["measure_performance", "PERF_KEYS"]
+__all__ = ["PERF_KEYS", "measure_performance"]
 
 PERF_KEYS = ("env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
              "simulate_samples_per_s", "python_control_samples_per_s")

@@ -18,8 +18,14 @@ from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.specs import get_spec
 from fricbench.trajectories import Reference
 
-__all__ = ["BenchTask", "EpisodeRecord", "run_episode", "fit_compensators", "run_benchmark",
-           "bench_env"]
+__all__ = [
+    "BenchTask",
+    "EpisodeRecord",
+    "bench_env",
+    "fit_compensators",
+    "run_benchmark",
+    "run_episode",
+]
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,15 @@ from fricbench.compensators.base import (
 )
 from fricbench.registry import Registry
 
-__all__ = ["Compensator", "CompensatorError", "EpisodeContext", "NotFittedError",
-           "feature_index", "compensator_registry", "make_compensator"]
+__all__ = [
+    "Compensator",
+    "CompensatorError",
+    "EpisodeContext",
+    "NotFittedError",
+    "compensator_registry",
+    "feature_index",
+    "make_compensator",
+]
 
 compensator_registry: Registry[Compensator] = Registry("compensator", "fricbench.compensators")
 

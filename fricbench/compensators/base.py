@@ -28,8 +28,13 @@ from fricbench.axis import Axis, SimulationResult
 from fricbench.gym.task import FEATURES, N_BASE_FEATURES, ObservationConfig, TaskConfig
 from fricbench.trajectories import Reference
 
-__all__ = ["Compensator", "EpisodeContext", "NotFittedError", "CompensatorError",
-           "feature_index"]
+__all__ = [
+    "Compensator",
+    "CompensatorError",
+    "EpisodeContext",
+    "NotFittedError",
+    "feature_index",
+]
 
 
 class NotFittedError(RuntimeError):
@@ -54,7 +59,8 @@ def feature_index(name: str, axis: int = 0, cfg: ObservationConfig | None = None
     elif name == "preview_a":
         col = N_BASE_FEATURES + cfg.preview
     else:
-        raise ValueError(f"feature {name!r}: expected one of {FEATURES + ('preview_v', 'preview_a')}")
+        known = (*FEATURES, "preview_v", "preview_a")
+        raise ValueError(f"feature {name!r}: expected one of {known}")
     return axis * per_axis + col
 
 
@@ -151,11 +157,11 @@ class Compensator(abc.ABC):
             raise CompensatorError(f"{self.id}: produced a non-finite action {action!r}")
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
-    def end_episode(self) -> None:
+    def end_episode(self) -> None:  # noqa: B027 - optional hook
         """Called after the scored episode (optional hook)."""
 
     # -- to implement -------------------------------------------------------------------------
-    def _reset(self, context: EpisodeContext, seed: int | None) -> None:
+    def _reset(self, context: EpisodeContext, seed: int | None) -> None:  # noqa: B027
         """Prepare for the episode (precompute feedforward, reset filters, ...)."""
 
     @abc.abstractmethod

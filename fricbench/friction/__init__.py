@@ -12,8 +12,16 @@ from fricbench.friction.base import FrictionModel
 from fricbench.friction.models import Coulomb, Dahl, LuGre, Stribeck, Viscous
 from fricbench.registry import Registry
 
-__all__ = ["FrictionModel", "Coulomb", "Viscous", "Stribeck", "LuGre", "Dahl",
-           "friction_registry", "make_friction"]
+__all__ = [
+    "Coulomb",
+    "Dahl",
+    "FrictionModel",
+    "LuGre",
+    "Stribeck",
+    "Viscous",
+    "friction_registry",
+    "make_friction",
+]
 
 friction_registry: Registry[FrictionModel] = Registry("friction model", "fricbench.friction")
 for _cls in (Coulomb, Viscous, Stribeck, LuGre, Dahl):

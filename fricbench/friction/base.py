@@ -1,4 +1,4 @@
-"""Base class of friction models: validated SI parameters, a vectorised force law, kernel packing."""
+"""Base class of friction models: validated SI parameters, vectorised force law, packing."""
 
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["stribeck_level", "steady_force", "KIND_STATIC", "KIND_LUGRE", "KIND_DAHL"]
+__all__ = ["KIND_DAHL", "KIND_LUGRE", "KIND_STATIC", "steady_force", "stribeck_level"]
 
 # Kernel codes of the friction dynamics. Static laws use the stick-slip-correct implicit update
 # (Kikuuwe et al. 2005); dynamic laws carry a bristle/pre-sliding state z (m).

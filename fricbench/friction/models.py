@@ -9,7 +9,7 @@ from fricbench._validation import check_nonneg, check_positive, check_range
 from fricbench.friction.base import FrictionModel
 from fricbench.friction.laws import KIND_DAHL, KIND_LUGRE, KIND_STATIC
 
-__all__ = ["Coulomb", "Viscous", "Stribeck", "LuGre", "Dahl"]
+__all__ = ["Coulomb", "Dahl", "LuGre", "Stribeck", "Viscous"]
 
 
 def _static(fc: float, fs: float, vs: float, delta: float, fv: float) -> dict[str, float]:

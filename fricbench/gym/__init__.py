@@ -12,6 +12,16 @@ from fricbench.gym.specs import env_ids, get_spec, make_env, make_vector_env, re
 from fricbench.gym.task import ObservationConfig, Randomization, RewardConfig, TaskConfig
 from fricbench.gym.vector import ServoAxisVectorEnv
 
-__all__ = ["ServoAxisEnv", "ServoAxisVectorEnv", "TaskConfig", "ObservationConfig",
-           "RewardConfig", "Randomization", "register_envs", "env_ids", "get_spec", "make_env",
-           "make_vector_env"]
+__all__ = [
+           "ObservationConfig",
+           "Randomization",
+           "RewardConfig",
+           "ServoAxisEnv",
+           "ServoAxisVectorEnv",
+           "TaskConfig",
+           "env_ids",
+           "get_spec",
+           "make_env",
+           "make_vector_env",
+           "register_envs",
+]

@@ -134,7 +134,8 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         options = options or {}
         unknown = set(options) - {"trajectory"}
         if unknown:
-            raise ValueError(f"reset options: unknown keys {sorted(unknown)}; expected 'trajectory'")
+            raise ValueError(f"reset options: unknown keys {sorted(unknown)}; "
+                             "expected 'trajectory'")
         traj = options.get("trajectory")
         rng = self.np_random
         if traj is None:
@@ -148,7 +149,8 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"trajectory {ref.name!r} has {ref.n_axes} axes; this env drives "
                              f"{self.n_axes}")
         if abs(ref.ts - self.ts) > 1e-12:
-            raise ValueError(f"trajectory sampled at ts={ref.ts:g} s; the axis runs at {self.ts:g} s")
+            raise ValueError(f"trajectory sampled at ts={ref.ts:g} s; the axis runs at "
+                             f"{self.ts:g} s")
         self.reference = ref
         axis = self.task.randomize.sample(self.axis, rng)
         for i in range(self.n_axes):
@@ -165,7 +167,8 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         self._prev_action[:] = 0.0
         self._u_force[:] = 0.0
         self._u_off[:] = 0.0
-        noise0 = rng.standard_normal(self.n_axes) if self.axis.needs_noise else np.zeros(self.n_axes)
+        d = self.n_axes
+        noise0 = rng.standard_normal(d) if self.axis.needs_noise else np.zeros(d)
         self._batch.reset(self._xr[:, 0], self._vr[:, 0], noise0)
         self._history = {"t": [], "x_ref": [], "x": [], "error": []}
         self._record()

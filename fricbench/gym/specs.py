@@ -24,8 +24,15 @@ from fricbench.axis import Axis
 from fricbench.gym.task import TaskConfig
 from fricbench.registry import UnknownIdError
 
-__all__ = ["EnvSpecFile", "load_spec", "spec_files", "register_envs", "make_env",
-           "make_vector_env", "env_ids"]
+__all__ = [
+    "EnvSpecFile",
+    "env_ids",
+    "load_spec",
+    "make_env",
+    "make_vector_env",
+    "register_envs",
+    "spec_files",
+]
 
 _SPECS: dict[str, EnvSpecFile] = {}
 

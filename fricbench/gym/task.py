@@ -28,8 +28,17 @@ from fricbench.axis.kernel import P_KT, P_TS, S_IAPP, S_XFB, S_XFB_PREV, S_XMEAS
 from fricbench.friction import make_friction
 from fricbench.trajectories import Reference, make_trajectory
 
-__all__ = ["TaskConfig", "ObservationConfig", "RewardConfig", "Randomization",
-           "TrajectoryChoice", "reference_for", "fill_observation", "apply_action", "n_features"]
+__all__ = [
+    "ObservationConfig",
+    "Randomization",
+    "RewardConfig",
+    "TaskConfig",
+    "TrajectoryChoice",
+    "apply_action",
+    "fill_observation",
+    "n_features",
+    "reference_for",
+]
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,13 @@ from typing import Any
 from fricbench.registry import Registry
 from fricbench.trajectories.base import Reference
 
-__all__ = ["Reference", "trajectory_registry", "make_trajectory", "EVALUATION_SET",
-           "TRAINING_SET"]
+__all__ = [
+    "EVALUATION_SET",
+    "TRAINING_SET",
+    "Reference",
+    "make_trajectory",
+    "trajectory_registry",
+]
 
 trajectory_registry: Registry[Reference] = Registry("trajectory", "fricbench.trajectories")
 

@@ -25,15 +25,15 @@ from fricbench._validation import check_finite, check_nonneg, check_positive
 
 __all__ = [
     "Segment",
-    "point_to_point",
-    "monotone_point_to_point",
-    "reversal_accel_limit",
-    "rest",
-    "windowed_sines",
-    "smooth_window",
-    "concatenate",
-    "check_positive_sequence",
     "check_positive_pair",
+    "check_positive_sequence",
+    "concatenate",
+    "monotone_point_to_point",
+    "point_to_point",
+    "rest",
+    "reversal_accel_limit",
+    "smooth_window",
+    "windowed_sines",
 ]
 
 FloatArray = NDArray[np.float64]

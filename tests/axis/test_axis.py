@@ -195,7 +195,7 @@ def test_batched_rows_equal_single_runs(m_serial) -> None:
 
     axes = [Axis(), Axis().with_friction("lugre"), Axis().with_effects(cogging_amplitude=30.0)]
     batch = AxisBatch(axes)
-    rows = lambda a: np.ascontiguousarray(np.tile(a, (3, 1)))  # noqa: E731
+    rows = lambda a: np.ascontiguousarray(np.tile(a, (3, 1)))
     batch.reset(m_serial.x[0], m_serial.v[0])
     x_true = batch.run(rows(m_serial.x), rows(m_serial.v), rows(m_serial.a))[0]
     for i, ax in enumerate(axes):
