@@ -1,0 +1,173 @@
+"""``kalman``: a Kalman-filter disturbance observer (DOB) on the nominal rigid-body model.
+
+State ``s = [x, v, d]`` (position m, velocity m/s, disturbance force N) with the nominal mass
+``M`` and damping ``B`` of ``context.nominal_axis``::
+
+    dx/dt = v
+    dv/dt = (F + d - B v) / M        F: motor force (observation column ``motor_force``)
+    dd/dt = w                        w: white noise of spectral density q_d (random walk)
+
+discretised with a zero-order hold at the control period ``ts`` (the drive holds the force
+over a sample). The measurement is the encoder position ``z = x + n`` reconstructed from the
+observation as ``x = x_ref - e``. Friction enters as ``d = -F_f``, so the compensation force
+fed back at the velocity-loop output is ``u = -d_hat``.
+
+Tuning (see ``docs/compensators.md``)
+------------------------------------
+* ``R``: variance of the position measurement, ``q^2 / 12`` for an encoder step ``q``
+  (uniform quantisation error) plus ``noise_std^2``; floored at ``(1 nm)^2``.
+* ``Q``: chosen for a wanted observer bandwidth ``omega_o``. With the continuous-equivalent
+  measurement density ``R_c = R ts``, the steady-state filter of the chain
+  ``d -> 1/(M s^2) -> x`` has its three poles on a Butterworth circle of radius
+  ``omega_o = (q_d / (M^2 R_c))^(1/6)``, hence ``q_d = M^2 R ts omega_o^6`` (N^2/s). The
+  discrete ``Q`` is the exact Van Loan integral of that density over ``ts``.
+  :func:`observer_poles` returns the achieved discrete poles for checking.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+from scipy import linalg
+
+from fricbench._validation import check_nonneg, check_positive
+from fricbench.axis import Axis
+from fricbench.compensators.base import Compensator, EpisodeContext, feature_index
+
+__all__ = ["KalmanDisturbanceObserver", "dob_model", "observer_poles"]
+
+_R_FLOOR = 1.0e-18  # m^2: (1 nm)^2, keeps the filter well posed for an ideal sensor
+
+
+def dob_model(axis: Axis, bandwidth: float) -> dict[str, np.ndarray]:
+    """Discrete model and noise covariances of the disturbance observer.
+
+    Parameters
+    ----------
+    axis : Axis
+        Nominal axis (mass, damping, sample time, encoder step and noise).
+    bandwidth : float
+        Wanted observer bandwidth ``omega_o``, rad/s.
+
+    Returns
+    -------
+    dict
+        ``F`` (3x3), ``B`` (3x1), ``H`` (1x3), ``Q`` (3x3), ``R`` (1x1), ``q_d`` (N^2/s).
+    """
+    check_positive("bandwidth", bandwidth, "rad/s")
+    m, b, ts = axis.mechanics.mass, axis.mechanics.damping, axis.controller.ts
+    q_step = axis.effects.quantization
+    # R = q^2 / 12 + sigma_n^2 (uniform quantisation error plus sensor noise)
+    r = max(q_step**2 / 12.0 + axis.effects.noise_std**2, _R_FLOOR)
+    # q_d = M^2 R_c omega_o^6 with R_c = R ts: Butterworth poles of radius omega_o
+    q_d = m**2 * r * ts * bandwidth**6
+    a = np.array([[0.0, 1.0, 0.0], [0.0, -b / m, 1.0 / m], [0.0, 0.0, 0.0]])
+    bu = np.array([[0.0], [1.0 / m], [0.0]])
+    g = np.array([[0.0], [0.0], [1.0]])
+    # ZOH: [Phi Gamma; 0 I] = expm([A B; 0 0] ts)
+    big = np.zeros((4, 4))
+    big[:3, :3], big[:3, 3:] = a, bu
+    e = linalg.expm(big * ts)
+    phi, gamma = e[:3, :3], e[:3, 3:]
+    # Van Loan: Q = int_0^ts Phi(s) G q_d G' Phi(s)' ds
+    vl = np.zeros((6, 6))
+    vl[:3, :3], vl[:3, 3:], vl[3:, 3:] = -a, g @ g.T * q_d, a.T
+    ev = linalg.expm(vl * ts)
+    qd = ev[3:, 3:].T @ ev[:3, 3:]
+    qd = 0.5 * (qd + qd.T)
+    return {"F": phi, "B": gamma, "H": np.array([[1.0, 0.0, 0.0]]), "Q": qd,
+            "R": np.array([[r]]), "q_d": np.array(q_d)}
+
+
+def observer_poles(axis: Axis, bandwidth: float) -> np.ndarray:
+    """Continuous-equivalent poles ``ln(z)/ts`` of the steady-state filter, rad/s.
+
+    ``z`` are the eigenvalues of ``(I - K H) F`` with the steady-state gain ``K``.
+    """
+    mdl = dob_model(axis, bandwidth)
+    f, h, q, r = mdl["F"], mdl["H"], mdl["Q"], mdl["R"]
+    # P = F P F' - F P H'(H P H' + R)^-1 H P F' + Q  (prior covariance, DARE)
+    p = linalg.solve_discrete_are(f.T, h.T, q, r)
+    k = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
+    z = np.linalg.eigvals((np.eye(3) - k @ h) @ f)
+    return np.log(z.astype(complex)) / axis.controller.ts
+
+
+class KalmanDisturbanceObserver(Compensator):
+    """Disturbance observer: filterpy ``KalmanFilter`` on ``[x, v, d]``, feeds back ``-d_hat``.
+
+    Parameters
+    ----------
+    bandwidth : float
+        Observer bandwidth ``omega_o``, rad/s (sets ``Q``, see the module docstring).
+    gain : float
+        Fraction of the estimate fed back (1 = full cancellation).
+    max_force : float or None
+        Clip of the compensation force, N (``None``: the env's ``action_scale``).
+
+    Notes
+    -----
+    Needs no training (``learns = False``): the model is the nominal axis of the episode
+    context, as identified at commissioning.
+    """
+
+    id: ClassVar[str] = "kalman"
+    action_mode: ClassVar[str] = "force"
+    learns: ClassVar[bool] = False
+
+    def __init__(self, *, bandwidth: float = 1000.0, gain: float = 1.0,
+                 max_force: float | None = None) -> None:
+        super().__init__()
+        check_positive("bandwidth", bandwidth, "rad/s")
+        check_nonneg("gain", gain)
+        if max_force is not None:
+            check_positive("max_force", max_force, "N")
+        self.bandwidth = bandwidth
+        self.gain = gain
+        self.max_force = max_force
+        self._filters: list[KalmanFilter] = []
+        self._k = 0
+
+    def _reset(self, context: EpisodeContext, seed: int | None) -> None:
+        axis = context.nominal_axis
+        mdl = dob_model(axis, self.bandwidth)
+        ref = context.reference
+        self._xref = np.atleast_2d(ref.x)
+        v0 = np.atleast_2d(ref.v)[:, 0]
+        cfg = context.task.observation
+        self._cols = [(feature_index("error", i, cfg), feature_index("motor_force", i, cfg))
+                      for i in range(context.n_axes)]
+        self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
+        self._scale = context.task.action_scale
+        self._limit = self._scale if self.max_force is None else self.max_force
+        self._filters = []
+        for i in range(context.n_axes):
+            kf = KalmanFilter(dim_x=3, dim_z=1, dim_u=1)
+            kf.F, kf.B, kf.H = mdl["F"].copy(), mdl["B"].copy(), mdl["H"].copy()
+            kf.Q, kf.R = mdl["Q"].copy(), mdl["R"].copy()
+            kf.x = np.array([[self._xref[i, 0]], [v0[i]], [0.0]])
+            # start certain of x and v (at rest on the reference), unsure of d (breakaway)
+            kf.P = np.diag([mdl["R"][0, 0], 1e-8, axis.friction.kernel_params()["fs"] ** 2
+                            + 1.0])
+            self._filters.append(kf)
+        self._k = 0
+        self.d_hat_: list[float] = []
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        k = min(self._k, self._xref.shape[1] - 1)
+        out = np.empty(len(self._filters))
+        for i, kf in enumerate(self._filters):
+            e_col, f_col = self._cols[i]
+            if self._k > 0:
+                # motor force of the last sample: it acted over [t_k-1, t_k)
+                kf.predict(u=np.array([[observation[f_col] * self._f_scale]]))
+            # z = x_ref - e
+            kf.update(np.array([[self._xref[i, k] - observation[e_col] * self._e_scale]]))
+            d_hat = float(kf.x[2, 0])
+            # u = -d_hat: cancel the estimated disturbance (friction enters as d = -F_f)
+            u = float(np.clip(-self.gain * d_hat, -self._limit, self._limit))
+            out[i] = u / self._scale
+        self._k += 1
+        return out

@@ -1,0 +1,118 @@
+"""``rl-sac``, ``rl-ppo``: stable-baselines3 agents trained on the randomised-friction env.
+
+The agents are trained once (``fricbench train rl-sac ...``, see
+:mod:`fricbench.compensators.train`) on ``fricbench/RandomFriction-v0``: friction redrawn
+every episode, seeded ``random`` training references only. The shipped policies in
+``fricbench/policies/`` are the deterministic actors as plain weights plus a JSON
+(:mod:`fricbench.compensators.rl_policy`); :meth:`RLCompensator.fit` only loads and checks
+them (no retraining in the benchmark).
+
+On a D-axis env (the two-axis circle) the single-axis policy acts on each axis's block of the
+observation (the appended contour error is not used).
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
+from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
+from fricbench.compensators.training_data import env_setup
+from fricbench.gym.task import n_features
+
+__all__ = ["RLCompensator", "SACCompensator", "PPOCompensator", "shipped_policy"]
+
+
+def shipped_policy(comp_id: str) -> Path:
+    """Path of the shipped policy JSON of ``comp_id`` (``fricbench/policies/<id>.json``)."""
+    return Path(str(resources.files("fricbench").joinpath("policies", f"{comp_id}.json")))
+
+
+class RLCompensator(Compensator):
+    """A trained actor network acting in the env loop.
+
+    Parameters
+    ----------
+    policy : str or Path or None
+        Policy JSON (weights next to it); ``None``: the shipped policy of this id.
+
+    Attributes
+    ----------
+    policy_ : NumpyPolicy
+        The loaded actor (after :meth:`fit`).
+    """
+
+    algo: ClassVar[str] = ""
+    action_mode: ClassVar[str] = "force"
+    learns: ClassVar[bool] = True
+
+    def __init__(self, *, policy: str | Path | None = None) -> None:
+        super().__init__()
+        if policy is not None and not isinstance(policy, (str, Path)):
+            raise TypeError(f"policy={policy!r}: expected a path to a policy JSON or None")
+        self.policy = policy
+
+    @property
+    def policy_path(self) -> Path:
+        """The policy JSON this compensator loads."""
+        return shipped_policy(self.id) if self.policy is None else Path(self.policy)
+
+    def fit(self, env_id: str, *, seed: int = 0) -> RLCompensator:
+        """Load the trained policy and check it fits ``env_id`` (no training here).
+
+        Raises
+        ------
+        CompensatorError
+            Naming the file, when it is missing, corrupt, from another algorithm, or built for
+            another observation layout or action mode.
+        """
+        path = self.policy_path
+        pol = load_policy(path)
+        spec = pol.spec
+        if spec.algo != self.algo:
+            raise CompensatorError(f"{path}: a {spec.algo!r} policy; {self.id} expects "
+                                   f"{self.algo!r}")
+        if spec.action_mode != self.action_mode:
+            raise CompensatorError(f"{path}: trained for {spec.action_mode!r} actions; {self.id} "
+                                   f"acts in {self.action_mode!r} mode")
+        _, task = env_setup(env_id)
+        nf = n_features(task.observation)
+        if spec.obs_dim != nf or spec.act_dim != 1:
+            raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
+                                   f"{env_id} has {nf} features and 1 action per axis")
+        self.policy_ = pol
+        self._fitted = True
+        return self
+
+    def _reset(self, context: EpisodeContext, seed: int | None) -> None:
+        pol: NumpyPolicy = self.policy_
+        nf = n_features(context.task.observation)
+        if nf != pol.spec.obs_dim:
+            raise CompensatorError(f"{self.policy_path}: obs_dim={pol.spec.obs_dim} but the "
+                                   f"episode's env has {nf} features per axis")
+        self._nf = nf
+        # a unit action means spec.action_scale in training: keep the physical output
+        self._gain = pol.spec.action_scale / context.task.action_scale
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        d = self.context.n_axes
+        rows = observation[: d * self._nf].reshape(d, self._nf)
+        return self.policy_(rows)[:, 0] * self._gain
+
+
+class SACCompensator(RLCompensator):
+    """Soft actor-critic agent (stable-baselines3), deterministic actor ``tanh(mu(obs))``."""
+
+    id: ClassVar[str] = "rl-sac"
+    algo: ClassVar[str] = "sac"
+
+
+class PPOCompensator(RLCompensator):
+    """Proximal policy optimisation agent (stable-baselines3), actor mean clipped to [-1, 1]."""
+
+    id: ClassVar[str] = "rl-ppo"
+    algo: ClassVar[str] = "ppo"

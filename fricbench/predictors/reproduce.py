@@ -1,0 +1,524 @@
+"""``fricbench reproduce``: the paper's experiment end to end on the simulated default axis.
+
+Wang & Zhang (2023), Sections 3-4, with the simulator in place of the machine:
+
+1. simulate M-serial and curve runs for training and, with another noise level and noise seed,
+   for testing (the held-out runs; nothing is evaluated on data it was trained on);
+2. identify the transfer function and ``v_break``, extract the nonlinear friction error;
+3. fit every predictor on the training runs, predict the held-out runs; the prediction error
+   is ``x_true - x_pred`` (the true table position of the held-out run: its measurement noise
+   is not an error of the predictor);
+4. pre-compensate (``x_r' = x_r + e_pred``) and measure the *actual* tracking error on the
+   simulator;
+5. the cross-trajectory case: trained without the curve (M-serial and a ``random`` training
+   run), evaluated on the curve.
+
+:func:`reproduce` returns a :class:`ReproduceResult`; :func:`write_json` writes the summary
+atomically, :func:`plot_figures` draws the counterparts of the paper's Figures 11-18, and
+:func:`format_report` prints our numbers beside the paper's.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fricbench.axis import Axis, SimulationResult, simulate
+from fricbench.predictors import make_predictor, predictor_registry
+from fricbench.predictors.base import Predictor, atomic_write_bytes
+from fricbench.predictors.precomp import precompensation_offset
+from fricbench.sysid.friction_error import extract_friction_error, identify_v_break_multi
+from fricbench.trajectories import make_trajectory
+from fricbench.trajectories.base import Reference
+
+__all__ = ["ReproduceConfig", "TrajectoryReport", "ReproduceResult", "reproduce", "write_json",
+           "plot_figures", "format_report", "PAPER"]
+
+#: The paper's numbers (Sec. 4; METHOD.md Sec. 6), um.
+PAPER = {
+    "v_break_mm_s": 1.98,
+    "m_serial": {"tracking_max_um": 40.0, "tf_max_um": 20.0, "tf_lstm_max_um": 3.5},
+    "curve": {"tracking_max_um": 44.0, "tf_max_um": 27.0, "tf_lstm_max_um": 8.0},
+}
+
+#: Targets of issue 3 (held-out runs): TF / TF+LSTM ratios and the pre-compensation cut.
+TARGETS = {"m_serial_ratio": 5.0, "curve_ratio": 3.0, "m_serial_precomp_cut": 0.70,
+           "beat_paper_ratio": 10.0}
+
+TRAJECTORIES = ("m_serial", "curve")
+
+
+@dataclass(frozen=True)
+class ReproduceConfig:
+    """Settings of :func:`reproduce` (all SI).
+
+    Parameters
+    ----------
+    quantization : float
+        Encoder step of every run, m (0.25 um: 10,000 pulses/rev, x4, 10 mm lead).
+    train_noise_std, test_noise_std : float
+        Measurement noise of the training and the held-out runs, m.
+    train_seed, test_seed : int
+        Noise seed of the first training / held-out run (the next runs count up).
+    predictors : tuple of str
+        Registered ids fitted and compared (``tf`` and ``tf+lstm`` are always included).
+    predictor_params : dict
+        Overrides passed to every predictor whose constructor takes them (e.g.
+        ``{"max_epochs": 3}`` for a smoke run).
+    precomp_iterations : int
+        Iterations of the iterated pre-compensation reported beside the one-shot one.
+    cross_training : tuple of tuple
+        ``(trajectory id, params)`` of the cross-trajectory training runs (no curve).
+    """
+
+    quantization: float = 0.25e-6
+    train_noise_std: float = 0.10e-6
+    test_noise_std: float = 0.05e-6
+    train_seed: int = 1
+    test_seed: int = 101
+    predictors: tuple[str, ...] = ("tf", "tf+lstm", "tf+stribeck", "tf+lstm-phys",
+                                   "tf+gru-phys")
+    predictor_params: dict[str, Any] = field(default_factory=dict)
+    precomp_iterations: int = 3
+    cross_training: tuple[tuple[str, dict[str, Any]], ...] = (
+        ("m_serial", {}), ("random", {"seed": 0}))
+    verbose: bool = True
+
+
+@dataclass(frozen=True)
+class TrajectoryReport:
+    """Results on one held-out trajectory.
+
+    Attributes
+    ----------
+    name : str
+    t, x_ref : ndarray
+        Time (s) and reference (m) of the held-out run.
+    tracking_error : ndarray
+        Actual tracking error ``x_ref - x_true``, m.
+    friction_error : ndarray
+        Nonlinear friction error extracted from the held-out measurement, m.
+    presliding : ndarray of bool
+        Pre-sliding windows.
+    prediction_errors : dict of str to ndarray
+        ``x_true - x_pred`` per predictor id, m.
+    max_um : dict of str to float
+        Max ``|x_true - x_pred|`` per predictor id, um.
+    precomp_errors : dict of str to ndarray
+        Actual tracking error with each feedforward (``"none"``, ``"<id>"``,
+        ``"<id> x<n>"`` for the iterated one), m.
+    precomp_max_um : dict of str to float
+    """
+
+    name: str
+    t: np.ndarray = field(repr=False)
+    x_ref: np.ndarray = field(repr=False)
+    tracking_error: np.ndarray = field(repr=False)
+    friction_error: np.ndarray = field(repr=False)
+    presliding: np.ndarray = field(repr=False)
+    prediction_errors: dict[str, np.ndarray] = field(repr=False)
+    max_um: dict[str, float]
+    precomp_errors: dict[str, np.ndarray] = field(repr=False)
+    precomp_max_um: dict[str, float]
+
+    @property
+    def tracking_max_um(self) -> float:
+        """Max actual tracking error without compensation, um."""
+        return float(np.max(np.abs(self.tracking_error)) * 1e6)
+
+    def ratio(self, predictor_id: str) -> float:
+        """TF-only max prediction error over that of ``predictor_id``."""
+        return self.max_um["tf"] / self.max_um[predictor_id]
+
+
+@dataclass(frozen=True)
+class ReproduceResult:
+    """Everything :func:`reproduce` measured.
+
+    Attributes
+    ----------
+    tf_num, tf_den : list of float
+        The identified TF-only transfer function (descending powers of ``s``).
+    tf_lstm_num, tf_lstm_den : list of float
+        The transfer function inside TF+LSTM (fitted outside the pre-sliding windows).
+    v_break_mm_s : float
+        Break velocity identified from the training runs.
+    train_seconds : float
+        Wall-clock time of fitting TF+LSTM (TF, v_break and network).
+    fit_seconds : dict of str to float
+        Fit time of every predictor.
+    trajectories : dict of str to TrajectoryReport
+        ``"m_serial"`` and ``"curve"``.
+    cross : TrajectoryReport
+        The curve, predicted by predictors trained without it.
+    best : str
+        Registered id with the best worst-case TF / predictor ratio.
+    config : ReproduceConfig
+    n_train_samples : int
+    """
+
+    tf_num: list[float]
+    tf_den: list[float]
+    tf_lstm_num: list[float]
+    tf_lstm_den: list[float]
+    v_break_mm_s: float
+    train_seconds: float
+    fit_seconds: dict[str, float]
+    trajectories: dict[str, TrajectoryReport]
+    cross: TrajectoryReport
+    best: str
+    config: ReproduceConfig
+    n_train_samples: int
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON summary (keys as in issue 3, plus context under extra keys)."""
+        out: dict[str, Any] = {
+            "tf": {"num": self.tf_num, "den": self.tf_den},
+            "v_break_mm_s": self.v_break_mm_s,
+            "train_seconds": self.train_seconds,
+        }
+        k = self.config.precomp_iterations
+        for name in TRAJECTORIES:
+            rep = self.trajectories[name]
+            out[name] = {
+                "tracking_max_um": rep.tracking_max_um,
+                "tf_max_um": rep.max_um["tf"],
+                "tf_lstm_max_um": rep.max_um["tf+lstm"],
+                "precomp": {
+                    "none_max_um": rep.precomp_max_um["none"],
+                    "tf_precomp_max_um": rep.precomp_max_um["tf"],
+                    "tf_lstm_precomp_max_um": rep.precomp_max_um["tf+lstm"],
+                },
+                "predictors_max_um": dict(rep.max_um),
+                "precomp_all_max_um": dict(rep.precomp_max_um),
+            }
+        out["cross_trajectory"] = {
+            "trained_on": [tid for tid, _ in self.config.cross_training],
+            "evaluated_on": "curve",
+            "tracking_max_um": self.cross.tracking_max_um,
+            "predictors_max_um": dict(self.cross.max_um),
+            "precomp_all_max_um": dict(self.cross.precomp_max_um),
+        }
+        out["best_predictor"] = {
+            "id": self.best,
+            "ratio_m_serial": self.trajectories["m_serial"].ratio(self.best),
+            "ratio_curve": self.trajectories["curve"].ratio(self.best),
+        }
+        out["tf_lstm_tf"] = {"num": self.tf_lstm_num, "den": self.tf_lstm_den}
+        out["fit_seconds"] = dict(self.fit_seconds)
+        out["n_train_samples"] = self.n_train_samples
+        out["paper"] = PAPER
+        cfg = self.config
+        out["config"] = {
+            "quantization_m": cfg.quantization, "train_noise_std_m": cfg.train_noise_std,
+            "test_noise_std_m": cfg.test_noise_std, "train_seed": cfg.train_seed,
+            "test_seed": cfg.test_seed, "predictors": list(cfg.predictors),
+            "predictor_params": dict(cfg.predictor_params), "precomp_iterations": k,
+            "command": "fricbench reproduce",
+        }
+        return out
+
+
+# -- the pipeline ---------------------------------------------------------------------------------
+def _log(cfg: ReproduceConfig, msg: str) -> None:
+    if cfg.verbose:
+        print(msg, flush=True)
+
+
+def _make(pid: str, overrides: dict[str, Any], verbose: bool) -> Predictor:
+    factory = predictor_registry.spec(pid).load()
+    accepted = set(inspect.signature(factory).parameters)
+    kwargs = {k: v for k, v in overrides.items() if k in accepted}
+    if "verbose" in accepted and "verbose" not in overrides:
+        kwargs["verbose"] = 25 if verbose else 0
+    return make_predictor(pid, **kwargs)
+
+
+def _fit_all(ids: Sequence[str], runs: list[SimulationResult], cfg: ReproduceConfig,
+             label: str) -> tuple[dict[str, Predictor], dict[str, float]]:
+    fitted, seconds = {}, {}
+    for pid in ids:
+        _log(cfg, f"fitting {pid} on {label} ...")
+        t0 = time.perf_counter()
+        fitted[pid] = _make(pid, cfg.predictor_params, cfg.verbose).fit(runs)
+        seconds[pid] = time.perf_counter() - t0
+        _log(cfg, f"  {pid}: {seconds[pid]:.1f} s")
+    return fitted, seconds
+
+
+def _report(name: str, ref: Reference, test: SimulationResult, predictors: dict[str, Predictor],
+            test_axis: Axis, cfg: ReproduceConfig, friction_source: Predictor | None,
+            precomp_ids: Sequence[str]) -> TrajectoryReport:
+    pred_err = {pid: test.x_true - p.predict(ref) for pid, p in predictors.items()}
+    max_um = {pid: float(np.max(np.abs(e)) * 1e6) for pid, e in pred_err.items()}
+    if friction_source is not None and hasattr(friction_source, "v_break_"):
+        fe = extract_friction_error(friction_source.tf_, test.x_ref, test.x, ref.ts,  # type: ignore[attr-defined]
+                                    friction_source.v_break_)  # type: ignore[attr-defined]
+        fric, mask = fe.friction_error, fe.mask
+    else:
+        fric, mask = np.zeros_like(test.x_ref), np.zeros(test.x_ref.shape, dtype=bool)
+    pre_err = {"none": test.error}
+    for pid in precomp_ids:
+        if pid not in predictors:
+            continue
+        off = precompensation_offset(predictors[pid], ref, iterations=1)
+        pre_err[pid] = simulate(test_axis, ref, seed=test.seed, u_offset=off).error
+        if cfg.precomp_iterations > 1:
+            off = precompensation_offset(predictors[pid], ref, iterations=cfg.precomp_iterations)
+            pre_err[f"{pid} x{cfg.precomp_iterations}"] = simulate(
+                test_axis, ref, seed=test.seed, u_offset=off).error
+    pre_max = {k: float(np.max(np.abs(v)) * 1e6) for k, v in pre_err.items()}
+    return TrajectoryReport(name, ref.t, test.x_ref, test.error, fric, mask, pred_err, max_um,
+                            pre_err, pre_max)
+
+
+def reproduce(config: ReproduceConfig | None = None) -> ReproduceResult:
+    """Run the paper's experiment on the default axis; see the module docstring.
+
+    Parameters
+    ----------
+    config : ReproduceConfig, optional
+        Defaults reproduce the numbers in ``docs/reproduction.md``.
+
+    Returns
+    -------
+    ReproduceResult
+    """
+    cfg = config or ReproduceConfig()
+    if not isinstance(cfg, ReproduceConfig):
+        raise TypeError(f"config={cfg!r}: expected a ReproduceConfig")
+    ids = list(dict.fromkeys(["tf", "tf+lstm", *cfg.predictors]))
+    for pid in ids:
+        predictor_registry.spec(pid)  # unknown ids fail before any work
+    axis = Axis()
+    train_axis = axis.with_effects(quantization=cfg.quantization, noise_std=cfg.train_noise_std)
+    test_axis = axis.with_effects(quantization=cfg.quantization, noise_std=cfg.test_noise_std)
+    refs = {name: make_trajectory(name) for name in TRAJECTORIES}
+    train = [simulate(train_axis, refs[n], seed=cfg.train_seed + i)
+             for i, n in enumerate(TRAJECTORIES)]
+    test = {n: simulate(test_axis, refs[n], seed=cfg.test_seed + i)
+            for i, n in enumerate(TRAJECTORIES)}
+    n_train = sum(r.t.shape[0] for r in train)
+    _log(cfg, f"training runs: {', '.join(TRAJECTORIES)} ({n_train} samples, noise "
+              f"{cfg.train_noise_std * 1e6:g} um, seeds {cfg.train_seed}..); held-out runs: "
+              f"noise {cfg.test_noise_std * 1e6:g} um, seeds {cfg.test_seed}..")
+    bv = identify_v_break_multi([r.x_ref for r in train], [r.x for r in train], axis.controller.ts)
+    _log(cfg, f"v_break = {bv.v_break * 1e3:.3f} mm/s (x_break {bv.x_break * 1e6:.2f} um, "
+              f"{len(bv.breakaways)} breakaways)")
+    fitted, seconds = _fit_all(ids, train, cfg, "M-serial + curve")
+    lstm = fitted["tf+lstm"]
+    precomp_ids = [pid for pid in ids if pid != "tf+stribeck"]
+    reports = {n: _report(n, refs[n], test[n], fitted, test_axis, cfg, lstm, precomp_ids)
+               for n in TRAJECTORIES}
+    # the best registered predictor: largest worst-case TF / predictor ratio
+    candidates = [pid for pid in ids if pid != "tf"]
+    best = max(candidates, key=lambda pid: min(reports[n].ratio(pid) for n in TRAJECTORIES))
+    # cross-trajectory: trained without the curve
+    cross_refs = [make_trajectory(tid, **params) for tid, params in cfg.cross_training]
+    cross_train = [simulate(train_axis, r, seed=cfg.train_seed + 10 + i)
+                   for i, r in enumerate(cross_refs)]
+    cross_ids = list(dict.fromkeys(["tf", "tf+lstm", best]))
+    cross_fitted, _ = _fit_all(cross_ids, cross_train, cfg,
+                               " + ".join(t for t, _ in cfg.cross_training))
+    cross = _report("curve (cross)", refs["curve"], test["curve"], cross_fitted, test_axis, cfg,
+                    cross_fitted["tf+lstm"], cross_ids)
+    tf_pred = fitted["tf"]
+    return ReproduceResult(
+        tf_num=[float(c) for c in tf_pred.tf_.num[0][0]],  # type: ignore[attr-defined]
+        tf_den=[float(c) for c in tf_pred.tf_.den[0][0]],  # type: ignore[attr-defined]
+        tf_lstm_num=[float(c) for c in lstm.tf_.num[0][0]],  # type: ignore[attr-defined]
+        tf_lstm_den=[float(c) for c in lstm.tf_.den[0][0]],  # type: ignore[attr-defined]
+        v_break_mm_s=bv.v_break * 1e3,
+        train_seconds=seconds["tf+lstm"],
+        fit_seconds=seconds,
+        trajectories=reports,
+        cross=cross,
+        best=best,
+        config=cfg,
+        n_train_samples=n_train,
+    )
+
+
+# -- outputs ----------------------------------------------------------------------------------------
+def write_json(result: ReproduceResult, path: str | os.PathLike[str]) -> Path:
+    """Write ``result.to_json()`` to ``path`` atomically; return the path."""
+    path = Path(path)
+    atomic_write_bytes(path, (json.dumps(result.to_json(), indent=2) + "\n").encode())
+    return path
+
+
+def _poly(coeffs: Sequence[float]) -> str:
+    n = len(coeffs) - 1
+    terms = []
+    for i, c in enumerate(coeffs):
+        p = n - i
+        s = "" if p == 0 else ("s" if p == 1 else f"s^{p}")
+        terms.append(f"{c:.4g}{(' ' + s) if s else ''}")
+    return " + ".join(terms)
+
+
+def format_report(result: ReproduceResult) -> str:
+    """Our numbers beside the paper's, as printed by ``fricbench reproduce``."""
+    ms, cu = result.trajectories["m_serial"], result.trajectories["curve"]
+    k = result.config.precomp_iterations
+    lines = [
+        "fricbench reproduce: Wang & Zhang (2023) on the default axis, held-out runs",
+        f"TF (TF-only):  G(s) = ({_poly(result.tf_num)}) / ({_poly(result.tf_den)})",
+        f"TF in TF+LSTM: G(s) = ({_poly(result.tf_lstm_num)}) / ({_poly(result.tf_lstm_den)})",
+        f"v_break = {result.v_break_mm_s:.2f} mm/s (paper {PAPER['v_break_mm_s']} mm/s); "
+        f"TF+LSTM fit {result.train_seconds:.1f} s on {result.n_train_samples} samples",
+        "",
+        f"{'max error [um]':32s}{'M-serial':>10s}{'paper':>8s}{'curve':>10s}{'paper':>8s}",
+    ]
+
+    def row(label: str, a: float, pa: float | None, b: float, pb: float | None) -> str:
+        f = (lambda z: f"{z:8.1f}" if z is not None else f"{'-':>8s}")
+        return f"{label:32s}{a:10.2f}{f(pa)}{b:10.2f}{f(pb)}"
+
+    pm, pc = PAPER["m_serial"], PAPER["curve"]
+    lines.append(row("actual tracking error", ms.tracking_max_um, pm["tracking_max_um"],
+                     cu.tracking_max_um, pc["tracking_max_um"]))
+    lines.append(row("TF prediction error", ms.max_um["tf"], pm["tf_max_um"], cu.max_um["tf"],
+                     pc["tf_max_um"]))
+    lines.append(row("TF+LSTM prediction error", ms.max_um["tf+lstm"], pm["tf_lstm_max_um"],
+                     cu.max_um["tf+lstm"], pc["tf_lstm_max_um"]))
+    lines.append(f"{'  ratio TF / TF+LSTM':32s}{ms.ratio('tf+lstm'):9.1f}x"
+                 f"{pm['tf_max_um'] / pm['tf_lstm_max_um']:7.1f}x{cu.ratio('tf+lstm'):9.1f}x"
+                 f"{pc['tf_max_um'] / pc['tf_lstm_max_um']:7.1f}x")
+    for pid in ms.max_um:
+        if pid in ("tf", "tf+lstm"):
+            continue
+        lines.append(row(f"{pid} prediction error", ms.max_um[pid], None, cu.max_um[pid], None)
+                     + f"   ({ms.ratio(pid):.1f}x, {cu.ratio(pid):.1f}x)")
+    lines += ["", "pre-compensation x_r' = x_r + e_pred: actual max tracking error [um]"]
+    for key in ms.precomp_max_um:
+        label = "none" if key == "none" else (f"{key} (one-shot)" if " x" not in key
+                                              else f"{key.split(' x')[0]} ({k} iterations)")
+        cut_m = 1 - ms.precomp_max_um[key] / ms.precomp_max_um["none"]
+        cut_c = 1 - cu.precomp_max_um[key] / cu.precomp_max_um["none"]
+        lines.append(f"  {label:30s}{ms.precomp_max_um[key]:10.2f} ({cut_m:+5.0%})"
+                     f"{cu.precomp_max_um[key]:10.2f} ({cut_c:+5.0%})")
+    cr = result.cross
+    lines += ["", f"cross-trajectory: trained on "
+                  f"{' + '.join(t for t, _ in result.config.cross_training)}, evaluated on the "
+                  "curve"]
+    for pid, v in cr.max_um.items():
+        extra = "" if pid == "tf" else f"   ({cr.ratio(pid):.1f}x)"
+        lines.append(f"  {pid + ' prediction error':30s}{v:10.2f}{extra}")
+    for key, v in cr.precomp_max_um.items():
+        lines.append(f"  {'precomp ' + key:30s}{v:10.2f}")
+    r_ms, r_cu = ms.ratio("tf+lstm"), cu.ratio("tf+lstm")
+    cut = 1 - ms.precomp_max_um["tf+lstm"] / ms.precomp_max_um["none"]
+    b_ms, b_cu = ms.ratio(result.best), cu.ratio(result.best)
+
+    def ok(flag: bool) -> str:
+        return "met" if flag else "MISSED"
+
+    lines += [
+        "",
+        "targets (held-out runs):",
+        f"  TF+LSTM <= TF/5 on M-serial: {r_ms:.1f}x {ok(r_ms >= TARGETS['m_serial_ratio'])}",
+        f"  TF+LSTM <= TF/3 on curve:    {r_cu:.1f}x {ok(r_cu >= TARGETS['curve_ratio'])}",
+        f"  TF+LSTM pre-compensation cuts M-serial max error >= 70 %: {cut:.0%} "
+        f"{ok(cut >= TARGETS['m_serial_precomp_cut'])}",
+        f"  best predictor {result.best}: {b_ms:.1f}x M-serial, {b_cu:.1f}x curve, >= 10x on "
+        f"both: {ok(min(b_ms, b_cu) >= TARGETS['beat_paper_ratio'])}",
+    ]
+    return "\n".join(lines)
+
+
+def plot_figures(result: ReproduceResult, directory: str | os.PathLike[str]) -> list[Path]:
+    """Counterparts of the paper's Figures 11-18, plus pre-compensation and cross-trajectory.
+
+    Returns the written PNG paths.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(directory)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
+    um = 1e6
+
+    def save(fig: Any, name: str) -> None:
+        p = out_dir / name
+        fig.tight_layout()
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        paths.append(p)
+
+    figs = {"m_serial": (11, "M-serial linear trajectory"), "curve": (15, "curve")}
+    for name, (n0, title) in figs.items():
+        rep = result.trajectories[name]
+        t = rep.t
+        fig, ax = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+        ax[0].plot(t, rep.x_ref * 1e3)
+        ax[0].set_ylabel("reference [mm]")
+        ax[0].set_title(f"Fig. {n0}: {title}, (a) reference position, (b) tracking error")
+        ax[1].plot(t, rep.tracking_error * um, lw=0.8)
+        ax[1].set_ylabel("tracking error [um]")
+        ax[1].set_xlabel("time [s]")
+        save(fig, f"fig{n0}_{name}_tracking.png")
+
+        fig, ax = plt.subplots(figsize=(8, 3))
+        ax.plot(t, rep.prediction_errors["tf"] * um, lw=0.8)
+        ax.set_title(f"Fig. {n0 + 1}: {title}, prediction error of the TF "
+                     f"(max {rep.max_um['tf']:.1f} um)")
+        ax.set_ylabel("x - x_TF [um]")
+        ax.set_xlabel("time [s]")
+        save(fig, f"fig{n0 + 1}_{name}_tf_prediction_error.png")
+
+        fig, ax = plt.subplots(figsize=(8, 3))
+        ax.fill_between(t, 0, 1, where=rep.presliding, transform=ax.get_xaxis_transform(),
+                        color="0.9", label="pre-sliding windows")
+        ax.plot(t, rep.friction_error * um, lw=0.8, label="nonlinear friction error")
+        ax.set_title(f"Fig. {n0 + 2}: {title}, nonlinear friction error (held-out run)")
+        ax.set_ylabel("[um]")
+        ax.set_xlabel("time [s]")
+        ax.legend(loc="upper right", fontsize=8)
+        save(fig, f"fig{n0 + 2}_{name}_friction_error.png")
+
+        fig, ax = plt.subplots(figsize=(8, 3))
+        ax.plot(t, rep.prediction_errors["tf"] * um, lw=0.6, color="0.7", label="TF")
+        ax.plot(t, rep.prediction_errors["tf+lstm"] * um, lw=0.8,
+                label=f"TF+LSTM (max {rep.max_um['tf+lstm']:.1f} um)")
+        if result.best != "tf+lstm":
+            ax.plot(t, rep.prediction_errors[result.best] * um, lw=0.8,
+                    label=f"{result.best} (max {rep.max_um[result.best]:.1f} um)")
+        ax.set_title(f"Fig. {n0 + 3}: {title}, prediction error of the tracking error")
+        ax.set_ylabel("x - x_pred [um]")
+        ax.set_xlabel("time [s]")
+        ax.legend(loc="upper right", fontsize=8)
+        save(fig, f"fig{n0 + 3}_{name}_tf_lstm_prediction_error.png")
+
+        fig, ax = plt.subplots(figsize=(8, 3))
+        for key, err in rep.precomp_errors.items():
+            if " x" in key:
+                continue
+            ax.plot(t, err * um, lw=0.7, label=f"{key} (max {rep.precomp_max_um[key]:.1f} um)")
+        ax.set_title(f"{title}: actual tracking error with pre-compensation x_r + e_pred")
+        ax.set_ylabel("tracking error [um]")
+        ax.set_xlabel("time [s]")
+        ax.legend(loc="upper right", fontsize=7)
+        save(fig, f"precomp_{name}.png")
+
+    cr = result.cross
+    fig, ax = plt.subplots(figsize=(8, 3))
+    for pid, err in cr.prediction_errors.items():
+        ax.plot(cr.t, err * um, lw=0.7, label=f"{pid} (max {cr.max_um[pid]:.1f} um)")
+    ax.set_title("curve, predicted by predictors trained without it")
+    ax.set_ylabel("x - x_pred [um]")
+    ax.set_xlabel("time [s]")
+    ax.legend(loc="upper right", fontsize=8)
+    save(fig, "cross_curve_prediction_error.png")
+    return paths

@@ -1,0 +1,1 @@
+"""System identification: data loading, TF identification, friction-error extraction, diagnosis."""
