@@ -1,0 +1,194 @@
+"""The linear starting models: a black-box closed-loop transfer function, the linear grey-box
+loop (controller + mass with viscous damping) and the linear inverse dynamics."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.controllers import CascadeController, fit_arx_controller
+from fricbench.sysid.diagnose.models import (
+    Bounds,
+    GreyBox,
+    InverseDynamics,
+    PositionFit,
+    cascade_effort,
+    position_params,
+    simulate_models,
+)
+from fricbench.sysid.diagnose.prepared import Prepared
+
+__all__ = ["LinearTF", "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort",
+           "force_scale", "starting_controllers", "friction_aware_loop"]
+
+
+@dataclass
+class LinearTF:
+    """Black-box reference-to-position transfer function and its free-run position.
+
+    Attributes
+    ----------
+    tf : control.TransferFunction or None
+        Continuous-time model (None when the fit failed).
+    y : ndarray or None
+        Its free-run position on the run, m.
+    order : tuple of int
+        (poles, zeros).
+    """
+
+    tf: object
+    y: np.ndarray | None
+    order: tuple[int, int]
+
+
+def fit_linear_tf(prep: Prepared, orders: tuple[tuple[int, int], ...] = ((2, 1), (3, 2))
+                  ) -> LinearTF:
+    """Fit ``fricbench.sysid.tf_fit.fit_tf`` of each order; keep the best free-run fit."""
+    try:
+        from fricbench.sysid.tf_fit import fit_tf, simulate_tf
+    except ImportError:  # the shared module is optional for the diagnosis
+        return LinearTF(None, None, (0, 0))
+    best: LinearTF | None = None
+    best_sse = np.inf
+    for n_poles, n_zeros in orders:
+        try:
+            tf = fit_tf(prep.run.x_ref, prep.x, prep.ts, n_poles=n_poles, n_zeros=n_zeros,
+                        max_nfev=100)
+            y = simulate_tf(tf, prep.run.x_ref, prep.ts)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            continue
+        sse = float(np.sum((prep.x - y) ** 2))
+        if np.isfinite(sse) and sse < best_sse:
+            best, best_sse = LinearTF(tf, y, (n_poles, n_zeros)), sse
+    return best if best is not None else LinearTF(None, None, (0, 0))
+
+
+def force_scale(u: np.ndarray, ts: float) -> float:
+    """A robust magnitude of an effort: the 99th percentile of its low-passed absolute value."""
+    from scipy import signal
+
+    b, a = signal.butter(2, min(0.9, 2 * ts * 50.0))
+    uf = signal.filtfilt(b, a, u)
+    return float(max(np.percentile(np.abs(uf), 99), 1e-12))
+
+
+def starting_controllers(ts: float) -> list[CascadeController]:
+    """Standard starting loops: velocity bandwidths of 8, 25 and 60 % of the sampling rate,
+    position gain 8 or 30 % of it, with and without integral action and feedforward."""
+    out = []
+    for wv_ts, kp_frac, ki_frac, kvff in itertools.product(
+            (0.08, 0.25, 0.6), (0.08, 0.3), (0.0, 0.1), (0.0, 1.0)):
+        wv = wv_ts / ts
+        out.append(CascadeController(wv=wv, kp=kp_frac * wv, ki=ki_frac * wv, kvff=kvff))
+    return out
+
+
+def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
+                       ) -> tuple[GreyBox, np.ndarray, Bounds, np.ndarray | None]:
+    """Linear grey-box loop without effort: a cascade controller on a unit mass.
+
+    Several starting controllers (velocity bandwidths from 8 % to 60 % of the sampling rate,
+    with and without integral action and feedforward) are simulated; the best few are refined
+    by output error and the best refinement is returned (a base fit that has not converged
+    would make any added effect look useful).
+
+    Returns
+    -------
+    model : GreyBox
+    y : ndarray
+        Its free-run position, m.
+    bounds : Bounds
+        Parameter ranges of the run (the force scale from the model's virtual effort).
+    jac_rows : ndarray or None
+        Jacobian of the fit, one row per parameter.
+    """
+    starts = [GreyBox(c, CL.default_plant(1.0, 0.0)) for c in starting_controllers(prep.ts)]
+    ys, _, status = simulate_models(starts, prep)
+    sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
+                    for y, s in zip(ys, status, strict=True)])
+    order = np.argsort(sse)[:n_best]
+    f0 = max(float(np.max(np.abs(prep.inputs.ar))), 1e-6)
+    b0 = Bounds(force=f0, stroke=max(prep.stroke, 1e-9), v_max=max(prep.v_max, 1e-9),
+                duration=prep.duration, ts=prep.ts, noise=prep.noise.rms)
+    best = None
+    for i in order:
+        if not np.isfinite(sse[i]):
+            continue
+        m = starts[i]
+        fit = PositionFit(prep, position_params(m, b0, controller=True))
+        res = fit.run(m, max_iter=max_iter)
+        if best is None or res.cost < best.cost:
+            best = res
+    if best is None:
+        raise ValueError("no linear closed-loop model could be simulated stably on this run")
+    u_virtual = cascade_effort(best.model.controller, prep)
+    bounds = Bounds(force=max(force_scale(u_virtual, prep.ts), f0), stroke=b0.stroke,
+                    v_max=b0.v_max, duration=b0.duration, ts=b0.ts, noise=b0.noise)
+    return best.model, best.y, bounds, best.jac_rows
+
+
+def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bounds, float]:
+    """Linear grey-box loop from a measured effort: identified controller + IDIM-LS mass.
+
+    Returns
+    -------
+    model : GreyBox
+        ARX controller and the linear plant ``u = M a + B v``.
+    idim : InverseDynamics
+        The effort regression of the run.
+    bounds : Bounds
+    w_share : float
+        Share (%) of the effort that the controller law does not explain (rms ratio).
+    """
+    if prep.u is None:
+        raise ValueError("fit_linear_with_effort: the run has no effort column")
+    inp = prep.inputs
+    ctrl = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds)
+    idim = InverseDynamics(prep, prep.u)
+    p = idim.fit((), CL.default_plant(1.0, 0.0))
+    model = GreyBox(ctrl, p)
+    bounds = Bounds(force=force_scale(prep.u, prep.ts), stroke=max(prep.stroke, 1e-9),
+                    v_max=max(prep.v_max, 1e-9), duration=prep.duration, ts=prep.ts,
+                    noise=prep.noise.rms)
+    return model, idim, bounds, ctrl.relerr_pct
+
+
+def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15
+                        ) -> GreyBox:
+    """The loop gains identified together with a Coulomb friction force.
+
+    Without an effort, a linear fit hardly sees the feedback gains: with feedforward the
+    reference is tracked almost whatever they are, and what the gains do show is the response
+    to disturbances, which a linear model does not have. Friction is the disturbance every
+    axis has, so the gains are identified with a Coulomb force in the model (from the linear
+    loop and from the best standard loops). The returned model is linear again - the loop of
+    the joint fit with the linear plant refitted - and is the base the candidate effects are
+    judged against; whether friction itself belongs in the model is then judged like any
+    other effect.
+    """
+    f0 = 0.3 * bounds.force
+    starts = [linear] + [linear.copy(controller=c) for c in starting_controllers(prep.ts)]
+    starts = [m.copy(effects=("coulomb_friction",)) for m in starts]
+    for m in starts:
+        m.plant[CL.I_FC] = f0
+    ys, _, status = simulate_models(starts, prep)
+    sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
+                    for y, s in zip(ys, status, strict=True)])
+    order = [0] + [int(i) for i in np.argsort(sse[1:])[:1] + 1]
+    best = None
+    for i in order:
+        if not np.isfinite(sse[i]):
+            continue
+        fit = PositionFit(prep, position_params(starts[i], bounds, controller=True))
+        res = fit.run(starts[i], max_iter=max_iter)
+        if best is None or res.cost < best.cost:
+            best = res
+    if best is None:
+        return linear
+    loop = best.model.controller
+    base = linear.copy(controller=loop)
+    res = PositionFit(prep, position_params(base, bounds, controller=False)).run(base, 8)
+    return res.model

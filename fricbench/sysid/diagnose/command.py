@@ -1,0 +1,167 @@
+"""Command line of ``fricbench diagnose``.
+
+``fricbench diagnose DATA.csv [--validate OTHER.csv] [--json OUT.json] [--report DIR]``
+
+Wire it into a CLI with :func:`add_parser` and :func:`run`; :func:`main` runs it alone
+(``python -m fricbench.sysid.diagnose.command DATA.csv``). Bad input gives a one-line error
+and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Sequence
+
+__all__ = ["add_parser", "run", "main", "EXIT_OK", "EXIT_FAILED", "EXIT_BAD_INPUT"]
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_BAD_INPUT = 2
+
+
+def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    parser.add_argument("data", help="CSV run: time, reference, measured position "
+                        "[, effort]")
+    parser.add_argument("--validate", metavar="OTHER.csv",
+                        help="another run of the same axis: evaluate the final model on it")
+    parser.add_argument("--json", metavar="OUT.json", help="write the JSON report here")
+    parser.add_argument("--report", metavar="DIR",
+                        help="write report.json and the residual plots into this directory")
+    cols = parser.add_argument_group("columns")
+    cols.add_argument("--time", default="t", help="time column, s (default: t)")
+    cols.add_argument("--reference", default="x_ref",
+                      help="reference position column, m (default: x_ref)")
+    cols.add_argument("--position", default="x",
+                      help="measured position column, m (default: x)")
+    cols.add_argument("--effort", default=None,
+                      help="effort column (force, current or voltage); default: u when the "
+                           "file has it")
+    cols.add_argument("--no-effort", action="store_true",
+                      help="ignore any effort column (diagnose from the position only)")
+    cols.add_argument("--effort-unit", default="N",
+                      help="unit of the effort, used to label force parameters (default: N)")
+    tune = parser.add_argument_group("analysis")
+    tune.add_argument("--max-effects", type=int, default=8,
+                      help="most effects to add (default: 8)")
+    tune.add_argument("--filter-hz", type=float, default=None,
+                      help="derivative filter cut-off of the inverse dynamics, Hz "
+                           "(default: a tenth of the sampling rate)")
+    tune.add_argument("--decimate", type=int, default=None,
+                      help="decimation of the inverse dynamics (default: 10)")
+    tune.add_argument("--tf", action="store_true",
+                      help="also fit the black-box transfer function (fricbench.sysid.tf_fit) "
+                           "and report its position error (slow on long runs)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    return parser
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:  # type: ignore[type-arg]
+    """Add the ``diagnose`` sub-command to ``subparsers``; its handler is :func:`run`."""
+    parser = subparsers.add_parser(
+        "diagnose", help="find the effects a linear model of a measured run lacks",
+        description="Fit a linear closed-loop model to a run, trace its residual to missing "
+                    "physical effects (judged on held-out data), add them and report the "
+                    "error before and after.")
+    _configure(parser)
+    parser.set_defaults(func=run)
+    return parser
+
+
+def _fmt(value: float | None, scale: float = 1.0, digits: int = 3) -> str:
+    return "-" if value is None else f"{value * scale:.{digits}g}"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the diagnosis for parsed ``args``; returns the exit status."""
+    from fricbench.sysid.io import DataError, load_run
+
+    t_start = time.perf_counter()
+    log = (lambda _s: None) if args.quiet else (lambda s: print(s, file=sys.stderr))
+    for name in ("json",):
+        out = getattr(args, name)
+        if out and os.path.dirname(os.path.abspath(out)) and not os.path.isdir(
+                os.path.dirname(os.path.abspath(out))):
+            print(f"error: --{name} {out}: the directory does not exist", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    if args.max_effects < 0:
+        print(f"error: --max-effects {args.max_effects}: expected >= 0", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    effort = None if args.no_effort else (args.effort or "u")
+    required = args.effort is not None and not args.no_effort
+    cols = dict(time=args.time, reference=args.reference, position=args.position,
+                effort=effort, effort_required=required)
+    try:
+        run_data = load_run(args.data, **cols)
+        other = load_run(args.validate, **cols) if args.validate else None
+    except DataError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    for w in run_data.warnings + (other.warnings if other is not None else ()):
+        print(f"warning: {w}", file=sys.stderr)
+    try:
+        from fricbench.sysid.diagnose.diagnosis import diagnose
+        from fricbench.sysid.diagnose.search import SearchSettings
+
+        result = diagnose(run_data, validate=other, force_unit=args.effort_unit,
+                          settings=SearchSettings(max_steps=args.max_effects),
+                          compare_tf=args.tf, cutoff_hz=args.filter_hz, decim=args.decimate,
+                          log=log)
+    except (ValueError, FloatingPointError) as exc:
+        print(f"error: the diagnosis failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    report = result.to_dict()
+    try:
+        if args.json:
+            from fricbench.sysid.diagnose.report import write_json
+
+            write_json(args.json, report)
+        if args.report:
+            from fricbench.sysid.diagnose.report import write_report
+
+            write_report(result, args.report)
+    except OSError as exc:
+        print(f"error: cannot write the report: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    _print_summary(report, run_data.n_samples, time.perf_counter() - t_start)
+    return EXIT_OK
+
+
+def _print_summary(report: dict, n_samples: int, elapsed: float) -> None:
+    effects = report["effects"]
+    print(f"effects found: {', '.join(effects) if effects else 'none'}")
+    for step in report["steps"]:
+        params = ", ".join(f"{k}={v:.4g}" for k, v in step["parameters"].items())
+        m = step["metrics"]
+        extra = (f", effort {m['effort_relerr_pct']:.3f} %" if "effort_relerr_pct" in m
+                 else "")
+        print(f"  {step['step']}. {step['effect']}: {params}  "
+              f"(position rms {m['position_rms_m'] * 1e6:.3f} um{extra})")
+    pos = report["position"]
+    print(f"position rms  {pos['rms_before'] * 1e6:.4g} -> {pos['rms_after'] * 1e6:.4g} um, "
+          f"max {pos['max_before'] * 1e6:.4g} -> {pos['max_after'] * 1e6:.4g} um "
+          f"(noise floor {report['noise_floor']['prediction_floor_m'] * 1e6:.3g} um)")
+    if "effort" in report:
+        e = report["effort"]
+        print(f"effort relerr {e['relerr_before_pct']:.3f} -> {e['relerr_after_pct']:.3f} %")
+    if "validation" in report:
+        v = report["validation"]
+        vp = v["position"]
+        print(f"validation ({os.path.basename(v['source'])}): position rms "
+              f"{vp['rms_before'] * 1e6:.4g} -> {vp['rms_after'] * 1e6:.4g} um"
+              + (f", effort relerr {v['effort']['relerr_before_pct']:.3f} -> "
+                 f"{v['effort']['relerr_after_pct']:.3f} %" if "effort" in v else ""))
+    print(f"stop: {report['stop_reason']}")
+    print(f"elapsed: {elapsed:.1f} s for {n_samples} samples")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Stand-alone entry point (``python -m fricbench.sysid.diagnose.command``)."""
+    parser = _configure(argparse.ArgumentParser(prog="fricbench diagnose"))
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

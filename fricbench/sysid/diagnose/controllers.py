@@ -1,0 +1,248 @@
+"""Linear controller models of the closed loop: a parametric cascade and an identified ARX law.
+
+Both turn into the generic difference equation of :mod:`fricbench.sysid.diagnose.closed_loop`::
+
+    u[k] = sum_i a_i u[k-i] + r[k] + sum_j c_j x[k-j]
+
+* :class:`CascadeController` is the industrial position/velocity cascade: position P with
+  velocity and acceleration feedforward, velocity PI on the backward-difference velocity. It is
+  the model when the run has no effort: the mass is then normalised to 1 and ``u`` is an
+  acceleration (m/s^2). Its parameters are physical and bounded, so that friction cannot be
+  traded for a loop without integral action (a known way to mistake friction for backlash).
+* :class:`ArxController` is identified by least squares from a measured effort: any linear law
+  in the reference (with look-ahead, for feedforward from a planned trajectory), the measured
+  position and its own past outputs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from fricbench.sysid.diagnose.leastsq import matvec, solve_ls, sumsq
+
+__all__ = ["CascadeController", "ArxController", "fit_arx_controller", "LoopInputs"]
+
+
+@dataclass(frozen=True)
+class LoopInputs:
+    """Sampled reference signals and initial conditions shared by every simulation of a run.
+
+    Attributes
+    ----------
+    t : ndarray
+        Time from the start of the run, s.
+    ts : float
+        Sample time, s.
+    xr, vr, ar : ndarray
+        Reference position (m), velocity (m/s), acceleration (m/s^2), central differences.
+    x0, v0 : float
+        Initial position (m) and velocity (m/s) of the axis.
+    u0 : float
+        Initial effort (effort unit, or m/s^2 for the cascade).
+    """
+
+    t: np.ndarray
+    ts: float
+    xr: np.ndarray
+    vr: np.ndarray
+    ar: np.ndarray
+    x0: float
+    v0: float
+    u0: float = 0.0
+
+    def history(self, n: int) -> np.ndarray:
+        """Positions ``x[-1] .. x[-n]`` before the run (constant-velocity extrapolation)."""
+        return self.x0 - self.v0 * self.ts * np.arange(1, n + 1)
+
+
+@dataclass(frozen=True)
+class CascadeController:
+    """Position P + feedforward, velocity PI, per unit mass.
+
+    ``e_v = kp (x_r - x) + kvff v_r - (x[k] - x[k-1]) / ts``;
+    ``u = wv (e_v + I) + kaff a_r``; ``I[k+1] = I[k] + ts ki e_v[k]``.
+
+    Parameters
+    ----------
+    wv : float
+        Velocity-loop gain over the mass, ``K_v K_t / M``, rad/s.
+    kp : float
+        Position gain, 1/s.
+    ki : float
+        Integral rate ``1 / T_i`` of the velocity PI, 1/s (0: no integral action).
+    kvff : float
+        Velocity feedforward fraction.
+    kaff : float
+        Acceleration feedforward fraction.
+    """
+
+    wv: float
+    kp: float
+    ki: float = 0.0
+    kvff: float = 0.0
+    kaff: float = 0.0
+
+    def arx(self, inp: LoopInputs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                              np.ndarray]:
+        """Difference-equation form: ``(a, c, r, u_init, y_init)`` for the simulator."""
+        ts = inp.ts
+        alpha = 1.0 - ts * self.ki
+        ref_e = self.kp * inp.xr + self.kvff * inp.vr
+        prev_ref_e = self.kp * (inp.xr[0] - inp.vr[0] * ts) + self.kvff * inp.vr[0]
+        ref_prev = np.concatenate([[prev_ref_e], ref_e[:-1]])
+        a_prev = np.concatenate([[inp.ar[0]], inp.ar[:-1]])
+        # u[k] = u[k-1] + wv (e_v[k] - alpha e_v[k-1]) + kaff (a_r[k] - a_r[k-1])
+        r = self.wv * (ref_e - alpha * ref_prev) + self.kaff * (inp.ar - a_prev)
+        g = self.kp + 1.0 / ts
+        c = self.wv * np.array([-g, 1.0 / ts + alpha * g, -alpha / ts])
+        a = np.array([1.0])
+        y_init = inp.history(3)
+        e_prev = prev_ref_e - self.kp * y_init[0] - (y_init[0] - y_init[1]) / ts
+        u_init = np.array([self.wv * e_prev + inp.u0])
+        return a, c, r, u_init, y_init
+
+    def to_dict(self) -> dict[str, float]:
+        """JSON-ready parameters with units in the keys."""
+        return {"wv_rad_s": self.wv, "kp_1_s": self.kp, "ki_1_s": self.ki,
+                "kvff": self.kvff, "kaff": self.kaff}
+
+    def with_values(self, **changes: float) -> CascadeController:
+        """A copy with some parameters changed."""
+        return replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class ArxController:
+    """Identified linear control law ``u[k] = sum a_i u[k-i] + sum b_j x_r[k-j] + sum c_j x[k-j]``.
+
+    Parameters
+    ----------
+    a : ndarray
+        Coefficients of ``u[k-1] .. u[k-na]``.
+    b : ndarray
+        Coefficients of ``x_r[k+lead] .. x_r[k-lag]`` (``lead`` look-ahead samples first).
+    c : ndarray
+        Coefficients of ``x[k] .. x[k-nc+1]``.
+    lead : int
+        Look-ahead of the reference, samples.
+    relerr_pct : float
+        Fit error of the law on its data, ``100 ||u - u_hat|| / ||u||``.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    lead: int
+    relerr_pct: float = field(default=0.0)
+
+    def reference_part(self, xr: np.ndarray, vr: np.ndarray, ts: float) -> np.ndarray:
+        """``sum_j b_j x_r[k-j]`` with the reference extended at constant velocity."""
+        nb = self.b.shape[0]
+        lag = nb - 1 - self.lead
+        n = xr.shape[0]
+        pre = xr[0] - vr[0] * ts * np.arange(lag, 0, -1)
+        post = xr[-1] + vr[-1] * ts * np.arange(1, self.lead + 1)
+        ext = np.concatenate([pre, xr, post])
+        out = np.zeros(n)
+        for j in range(nb):
+            # coefficient j multiplies x_r[k + lead - j]
+            start = lag + self.lead - j
+            out += self.b[j] * ext[start:start + n]
+        return out
+
+    def arx(self, inp: LoopInputs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                              np.ndarray]:
+        """Difference-equation form: ``(a, c, r, u_init, y_init)`` for the simulator."""
+        r = self.reference_part(inp.xr, inp.vr, inp.ts)
+        u_init = np.full(max(self.a.shape[0], 1), inp.u0)[: self.a.shape[0]]
+        return self.a, self.c, r, u_init, inp.history(max(self.c.shape[0], 1))
+
+    def predict(self, xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndarray,
+                ts: float) -> np.ndarray:
+        """One-step effort prediction from measured ``x`` and past measured ``u``."""
+        out = self.reference_part(xr, vr, ts)
+        for j in range(self.c.shape[0]):
+            out[j:] += self.c[j] * x[: x.shape[0] - j]
+            out[:j] += self.c[j] * x[0]
+        for i in range(self.a.shape[0]):
+            out[i + 1:] += self.a[i] * u[: u.shape[0] - i - 1]
+            out[: i + 1] += self.a[i] * u[0]
+        return out
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready coefficients."""
+        return {"a": self.a.tolist(), "b_reference": self.b.tolist(),
+                "c_position": self.c.tolist(), "reference_lead_samples": self.lead,
+                "relerr_pct": self.relerr_pct}
+
+
+def _design(xr: np.ndarray, x: np.ndarray, u: np.ndarray, na: int, nc: int, lead: int,
+            lag: int) -> tuple[np.ndarray, np.ndarray, slice]:
+    """Regressors of the law; positions enter as differences to ``x[k]`` (see below)."""
+    n = xr.shape[0]
+    k0 = max(na, nc - 1, lag)
+    k1 = n - lead
+    rows = slice(k0, k1)
+    xk = x[k0:k1]
+    cols = []
+    for i in range(1, na + 1):
+        cols.append(u[k0 - i:k1 - i])
+    # a servo law acts on position differences (shifting reference and position together
+    # changes nothing), so sum(b) + sum(c) = 0: c_0 is implied by the other coefficients
+    for j in range(-lead, lag + 1):
+        cols.append(xr[k0 - j:k1 - j] - xk)
+    for j in range(1, nc):
+        cols.append(x[k0 - j:k1 - j] - xk)
+    return np.column_stack(cols), u[rows], rows
+
+
+def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndarray,
+                       ts: float, folds: np.ndarray, *, lead: int = 2, lag: int = 3,
+                       nc: int = 4) -> ArxController:
+    """Identify the control law from reference, measured position and effort.
+
+    Least squares on the equation error (the effort is computed by the controller from the
+    measured position, so the equation error is the controller's own and the estimate is
+    unbiased). The recursion order (0: a static law such as PD, 1: an integrator or a
+    filtered derivative) is chosen by the error on held-out folds, preferring the simpler law
+    unless the richer one is clearly better.
+
+    Parameters
+    ----------
+    xr, vr, x, u : ndarray, shape (K,)
+        Reference position (m) and velocity (m/s), measured position (m), effort.
+    ts : float
+        Sample time, s.
+    folds : ndarray of int, shape (K,)
+        Fold label of each sample (0/1).
+    lead, lag : int
+        Reference look-ahead and look-back, samples.
+    nc : int
+        Number of position taps ``x[k] .. x[k-nc+1]``.
+
+    Returns
+    -------
+    ArxController
+    """
+    best: tuple[float, int] | None = None
+    for na in (0, 1):
+        mat, rhs, rows = _design(xr, x, u, na, nc, lead, lag)
+        f = folds[rows]
+        sse = 0.0
+        for k in (0, 1):
+            tr, te = f != k, f == k
+            coef = solve_ls(mat[tr], rhs[tr])
+            sse += sumsq(rhs[te] - matvec(mat[te], coef))
+        if best is None or sse < 0.8 * best[0]:
+            best = (sse, na)
+    na = best[1] if best is not None else 0
+    mat, rhs, rows = _design(xr, x, u, na, nc, lead, lag)
+    coef = solve_ls(mat, rhs)
+    a = coef[:na]
+    b = coef[na:na + lead + lag + 1]
+    c_rest = coef[na + lead + lag + 1:]
+    c = np.concatenate([[-(np.sum(b) + np.sum(c_rest))], c_rest])
+    rel = float(100.0 * np.sqrt(sumsq(rhs - matvec(mat, coef)) / max(sumsq(rhs), 1e-300)))
+    return ArxController(a=a, b=b, c=c, lead=lead, relerr_pct=rel)

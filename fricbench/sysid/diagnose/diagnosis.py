@@ -1,0 +1,313 @@
+"""The diagnosis workflow: linear baseline -> residual -> missing effect -> refit -> errors.
+
+:func:`diagnose` is the library entry point behind ``fricbench diagnose``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.baselines import (
+    LinearTF,
+    fit_linear_cascade,
+    fit_linear_tf,
+    fit_linear_with_effort,
+    friction_aware_loop,
+)
+from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
+from fricbench.sysid.diagnose.effects import describe_parameters
+from fricbench.sysid.diagnose.models import GreyBox, InverseDynamics, simulate_position
+from fricbench.sysid.diagnose.prepared import Prepared, prepare
+from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
+from fricbench.sysid.io import RunData
+
+__all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "INJECTED_EFFORT_SHARE"]
+
+INJECTED_EFFORT_SHARE = 0.02
+"""Share of the effort (rms) the controller law must leave unexplained before the remainder is
+treated as an injected input (test pulses) in free-run simulations."""
+
+
+@dataclass
+class RunEvaluation:
+    """Errors of the linear and the final model on one run.
+
+    Attributes
+    ----------
+    y_before, y_after : ndarray
+        Free-run positions of the linear and final model, m.
+    effort_before, effort_after : float or None
+        Relative effort errors of the inverse dynamics, %.
+    injected_share : float or None
+        Rms share of the effort the controller law does not explain (runs with effort).
+    used_injected : bool
+        Whether that remainder was fed to the simulations as an injected effort.
+    """
+
+    prep: Prepared
+    y_before: np.ndarray = field(repr=False)
+    y_after: np.ndarray = field(repr=False)
+    effort_before: float | None
+    effort_after: float | None
+    injected_share: float | None = None
+    used_injected: bool = False
+
+    def position(self) -> dict[str, float]:
+        """The issue's position metrics, m."""
+        x = self.prep.x
+        eb, ea = x - self.y_before, x - self.y_after
+        return {"rms_before": _rms(eb), "rms_after": _rms(ea),
+                "max_before": float(np.max(np.abs(eb))), "max_after": float(np.max(np.abs(ea)))}
+
+    def effort(self) -> dict[str, float] | None:
+        """The issue's effort metrics, %."""
+        if self.effort_before is None or self.effort_after is None:
+            return None
+        return {"relerr_before_pct": self.effort_before, "relerr_after_pct": self.effort_after}
+
+
+@dataclass
+class DiagnosisResult:
+    """Everything :func:`diagnose` found.
+
+    Attributes
+    ----------
+    run : RunData
+    prep : Prepared
+    mode : str
+        ``"effort"`` (inverse dynamics available) or ``"position"`` (position only).
+    force_unit : str
+        Unit of the force parameters.
+    linear : GreyBox
+        The linear model.
+    search : SearchResult
+    train : RunEvaluation
+    validation : RunEvaluation or None
+    linear_tf : LinearTF or None
+        The black-box transfer function, when requested.
+    elapsed_s : float
+        Wall time of the whole diagnosis, s.
+    """
+
+    run: RunData
+    prep: Prepared
+    mode: str
+    force_unit: str
+    linear: GreyBox
+    search: SearchResult
+    train: RunEvaluation
+    validation: RunEvaluation | None
+    validation_run: RunData | None
+    linear_tf: LinearTF | None
+    elapsed_s: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def effects(self) -> list[str]:
+        """Effects added, in order."""
+        return [s.effect for s in self.search.steps[1:] if s.effect is not None]
+
+    @property
+    def final(self) -> GreyBox:
+        """The final model."""
+        return self.search.final.model
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready report with the keys of issue 5 (and details beside them)."""
+        fu = self.force_unit
+        steps = []
+        for i, st in enumerate(self.search.steps[1:], start=1):
+            assert st.effect is not None
+            metrics: dict[str, object] = {"position_rms_m": st.position_rms,
+                                          "position_max_m": st.position_max}
+            if st.effort_relerr_pct is not None:
+                metrics["effort_relerr_pct"] = st.effort_relerr_pct
+            if st.heldout_ratio is not None:
+                metrics["heldout_error_ratio"] = st.heldout_ratio
+                metrics["heldout_gain_pct"] = 100.0 * (1.0 - st.heldout_ratio)
+            steps.append({
+                "step": i,
+                "effect": st.effect,
+                "parameters": describe_parameters(st.effect, st.model.plant, fu),
+                "metrics": metrics,
+                "model": _model_dict(st.model, fu),
+                "candidates": [c.to_dict() for c in st.candidates],
+            })
+        out: dict[str, object] = {
+            "effects": self.effects,
+            "position": self.train.position(),
+        }
+        eff = self.train.effort()
+        if eff is not None:
+            out["effort"] = eff
+        out["steps"] = steps
+        if self.validation is not None and self.validation_run is not None:
+            val: dict[str, object] = {"source": self.validation_run.source,
+                                      "position": self.validation.position()}
+            veff = self.validation.effort()
+            if veff is not None:
+                val["effort"] = veff
+            if self.validation.injected_share is not None:
+                val["injected_effort_share_pct"] = 100.0 * self.validation.injected_share
+                val["injected_effort_used"] = self.validation.used_injected
+            out["validation"] = val
+        first = self.search.steps[0]
+        rejected = self.search.final.candidates
+        pos = self.train.position()
+        out["linear_model"] = {"model": _model_dict(self.linear, fu),
+                               "position_rms_m": pos["rms_before"],
+                               "position_max_m": pos["max_before"]}
+        if first.effort_relerr_pct is not None:
+            out["linear_model"]["effort_relerr_pct"] = first.effort_relerr_pct  # type: ignore
+        if first.model is not self.linear:
+            out["search_base_model"] = {
+                "note": "the linear plant with the loop gains identified together with a "
+                        "Coulomb force: the base the candidate effects were judged against",
+                "model": _model_dict(first.model, fu), "position_rms_m": first.position_rms}
+        if self.linear_tf is not None and self.linear_tf.y is not None:
+            e = self.prep.x - self.linear_tf.y
+            out["linear_tf"] = {"orders": list(self.linear_tf.order), "position_rms_m": _rms(e),
+                                "position_max_m": float(np.max(np.abs(e))),
+                                "tf": str(self.linear_tf.tf).strip()}
+        out["stop_reason"] = self.search.stop_reason
+        out["rejected_at_last_step"] = [c.to_dict() for c in rejected]
+        out["noise_floor"] = dict(self.prep.noise.to_dict(),
+                                  prediction_floor_m=self.search.floor)
+        out["data"] = {"source": self.run.source, "samples": self.run.n_samples,
+                       "ts_s": self.run.ts, "duration_s": self.run.duration,
+                       "reversals": self.run.n_reversals, "columns": self.run.columns,
+                       "mode": self.mode, "force_unit": fu,
+                       "derivative_filter_hz": self.prep.cutoff_hz,
+                       "decimation": self.prep.decim}
+        if self.train.injected_share is not None:
+            out["data"]["injected_effort_share_pct"] = 100.0 * self.train.injected_share  # type: ignore
+        out["warnings"] = list(self.run.warnings) + (
+            list(self.validation_run.warnings) if self.validation_run is not None else [])
+        out["notes"] = list(self.notes)
+        out["elapsed_s"] = self.elapsed_s
+        return out
+
+
+def _rms(e: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(e**2))) if np.all(np.isfinite(e)) else float("inf")
+
+
+def _model_dict(model: GreyBox, force_unit: str) -> dict[str, object]:
+    p = model.plant
+    if force_unit == "m_s2":
+        plant = {"mass": "normalised to 1", "damping_1_s": float(p[CL.I_B])}
+    else:
+        plant = {f"mass_{force_unit}_s2_m": float(p[CL.I_M]),
+                 f"damping_{force_unit}_s_m": float(p[CL.I_B])}
+    return {"controller": model.controller.to_dict(), "plant": plant,
+            "effects": {e: describe_parameters(e, p, force_unit) for e in model.effects}}
+
+
+def _injected(ctrl: ArxController | CascadeController, prep: Prepared
+              ) -> tuple[np.ndarray | None, float | None, bool]:
+    if prep.u is None or not isinstance(ctrl, ArxController):
+        return None, None, False
+    inp = prep.inputs
+    w = prep.u - ctrl.predict(inp.xr, inp.vr, prep.x, prep.u, prep.ts)
+    share = float(np.sqrt(np.mean(w**2)) / max(np.sqrt(np.mean(prep.u**2)), 1e-300))
+    use = share > INJECTED_EFFORT_SHARE
+    return (w if use else None), share, use
+
+
+def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared) -> RunEvaluation:
+    w, share, used = _injected(final.controller, prep)
+    y_before, _ = simulate_position(linear, prep, w)
+    y_after, _ = simulate_position(final, prep, w)
+    eb = ea = None
+    if prep.u is not None and isinstance(final.controller, ArxController):
+        idim = InverseDynamics(prep, prep.u)
+        eb, ea = idim.relerr(linear.plant), idim.relerr(final.plant)
+    return RunEvaluation(prep, y_before, y_after, eb, ea, share, used)
+
+
+def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
+             settings: SearchSettings | None = None, compare_tf: bool = False,
+             cutoff_hz: float | None = None, decim: int | None = None,
+             log: Callable[[str], None] | None = None) -> DiagnosisResult:
+    """Find the effects a linear model of the run lacks, add them, report the errors.
+
+    Parameters
+    ----------
+    run : RunData
+        The run to diagnose (see :func:`fricbench.sysid.io.load_run`).
+    validate : RunData, optional
+        Another run of the same axis: the final model, fitted on ``run``, is evaluated on it.
+    force_unit : str
+        Unit of the effort column, used to label force parameters (``"N"``, ``"A"``, ``"V"``).
+        Without an effort, forces are per unit mass (``m_s2``).
+    settings : SearchSettings, optional
+        Thresholds of the forward selection.
+    compare_tf : bool
+        Also fit the black-box transfer function of ``fricbench.sysid.tf_fit`` and report its
+        position error (slow on long runs).
+    cutoff_hz, decim : optional
+        Derivative filter and decimation of the inverse dynamics (defaults: a tenth of the
+        sampling rate, 10).
+    log : callable, optional
+        Receives progress lines.
+
+    Returns
+    -------
+    DiagnosisResult
+    """
+    if not isinstance(run, RunData):
+        raise TypeError(f"run={run!r}: expected a RunData (fricbench.sysid.io.load_run)")
+    if validate is not None and not isinstance(validate, RunData):
+        raise TypeError(f"validate={validate!r}: expected a RunData or None")
+    if validate is not None and abs(validate.ts - run.ts) > 0.01 * run.ts:
+        raise ValueError(f"validate: sampled at ts={validate.ts:g} s but the run at "
+                         f"ts={run.ts:g} s: expected the same sample time")
+    log = log or (lambda _s: None)
+    t0 = time.perf_counter()
+    prep = prepare(run, cutoff_hz=cutoff_hz, decim=decim)
+    notes: list[str] = []
+    if prep.u is not None:
+        mode, fu = "effort", force_unit
+        log("linear model: controller law from the effort, inverse dynamics u = M a + B v")
+        linear, idim, bounds, ctrl_err = fit_linear_with_effort(prep)
+        notes.append(f"controller law identified from the effort with {ctrl_err:.2f} % "
+                     "relative error")
+        w, share, used = _injected(linear.controller, prep)
+        if used and share is not None:
+            notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
+                         "controller law; it is fed to the simulations as an injected input")
+        y_lin, _ = simulate_position(linear, prep, w)
+        jac = None
+    else:
+        mode, fu = "position", "m_s2"
+        log("linear model: cascade controller on a unit mass, output-error fit")
+        linear, y_lin, bounds, jac = fit_linear_cascade(prep)
+        idim, w = None, None
+        notes.append("no effort column: forces are reported per unit mass (m/s^2)")
+    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} m"
+        f" ({time.perf_counter() - t0:.1f} s)")
+    alt: tuple = ()
+    if mode == "position" and run.n_reversals > 0:
+        alt = (friction_aware_loop(linear, prep, bounds).controller,)
+        log(f"  loop gains identified with friction: {alt[0].to_dict()}")
+    search = forward_selection(linear, y_lin, prep, bounds, idim=idim, w=w, jac=jac,
+                               settings=settings, alt_loops=alt, log=log)
+    log(f"stop: {search.stop_reason}")
+    final = search.final.model
+    train = _evaluate(linear, final, prep)
+    tf = fit_linear_tf(prep) if compare_tf else None
+    val_eval = None
+    if validate is not None:
+        prep_v = prepare(validate, cutoff_hz=prep.cutoff_hz, decim=prep.decim)
+        val_eval = _evaluate(linear, final, prep_v)
+        if validate.u is None and prep.u is not None:
+            notes.append("the validation run has no effort: only position metrics")
+    return DiagnosisResult(run=run, prep=prep, mode=mode, force_unit=fu, linear=linear,
+                           search=search, train=train, validation=val_eval,
+                           validation_run=validate, linear_tf=tf,
+                           elapsed_s=time.perf_counter() - t0, notes=notes)

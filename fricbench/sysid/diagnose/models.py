@@ -1,0 +1,614 @@
+"""Grey-box models of a run and their two fits.
+
+* :class:`GreyBox` is one model: a linear controller, a mass with damping and the force and
+  output effects chosen so far (plant row of :mod:`fricbench.sysid.diagnose.closed_loop`).
+* :class:`InverseDynamics` fits the plant from an effort (measured, or computed by the
+  identified controller from the measured position): ``u = M a + B v + F_eff(x, v)`` by least
+  squares on filtered, decimated columns (IDIM-LS), with the nonlinear parameters of an effect
+  (Stribeck velocity, spatial periods) searched by variable projection.
+* :class:`PositionFit` fits any subset of controller, plant and effect parameters to the measured
+  position by output error: the model runs free on the reference and the simulated position is
+  compared with the measured one (bounded trust-region least squares, Jacobian by batched finite
+  differences).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy import optimize, signal
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
+from fricbench.sysid.diagnose.effects import IDIM_NONLINEAR, free_indices, idim_columns
+from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, matvec, solve_ls, sumsq
+from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.signals import decimate_columns, period_candidates
+
+__all__ = ["GreyBox", "simulate_position", "simulate_models", "Param", "position_params",
+           "PositionFit", "InverseDynamics", "cascade_effort", "Bounds", "prediction_floor"]
+
+KI_MIN_RATIO = 0.02
+"""Smallest integral rate of the cascade model, as a fraction of the velocity-loop gain."""
+
+_DIVERGED = 1.0e3  # residual (in noise-floor units) given to samples of a diverged simulation
+
+
+@dataclass
+class GreyBox:
+    """One grey-box closed-loop model.
+
+    Attributes
+    ----------
+    controller : CascadeController or ArxController
+    plant : ndarray, shape (N_PLANT,)
+        Mass, damping and effect parameters.
+    effects : tuple of str
+        Effects in the model, in the order they were added.
+    """
+
+    controller: CascadeController | ArxController
+    plant: np.ndarray
+    effects: tuple[str, ...] = ()
+
+    def copy(self, **changes: object) -> GreyBox:
+        """A deep copy with some fields changed."""
+        out = replace(self, **changes)  # type: ignore[arg-type]
+        out.plant = np.array(out.plant, dtype=float)
+        return out
+
+    def without(self, effect: str) -> GreyBox:
+        """A copy with ``effect`` switched off (its parameters zeroed)."""
+        p = self.plant.copy()
+        for i in free_indices(effect, self.effects):
+            if i not in (CL.I_VS, CL.I_COGP, CL.I_PDP, CL.I_THT):
+                p[i] = 0.0
+        if effect == "asymmetric_friction":
+            p[CL.I_DFC] = 0.0
+        return self.copy(plant=p, effects=tuple(e for e in self.effects if e != effect))
+
+
+def simulate_models(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None = None,
+                    noise: np.ndarray | None = None, quant: float = 0.0,
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Free-run position of several models on ``prep``'s reference, in parallel.
+
+    ``noise`` (m) and ``quant`` (m) add sensor noise and quantisation (for the noise floor).
+    Returns ``(y, u, status)`` with shapes (N, K), (N, K), (N,).
+    """
+    inp = prep.inputs
+    cache: dict[object, tuple] = {}
+    parts = []
+    for m in models:
+        # rows of a finite-difference Jacobian often share the controller: convert it once
+        key = m.controller if isinstance(m.controller, CascadeController) else id(m.controller)
+        if key not in cache:
+            cache[key] = m.controller.arx(inp)
+        parts.append(cache[key])
+    na = max(p[0].shape[0] for p in parts)
+    nc = max(p[1].shape[0] for p in parts)
+    n_rows = len(models)
+    A = np.zeros((n_rows, na))
+    C = np.zeros((n_rows, nc))
+    R = np.empty((n_rows, prep.n))
+    U0 = np.zeros((n_rows, na))
+    y_init = inp.history(max(nc, 1))
+    for i, (a, c, r, u0, _) in enumerate(parts):
+        A[i, : a.shape[0]] = a
+        C[i, : c.shape[0]] = c
+        R[i] = r
+        U0[i, : u0.shape[0]] = u0
+    P = np.stack([m.plant for m in models])
+    return CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=prep.n_sub, x0=inp.x0,
+                             v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
+                             quant=quant)
+
+
+def simulate_position(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Free-run position (m) and effort of one model; NaN after a divergence."""
+    y, u, _ = simulate_models([model], prep, w)
+    return y[0], u[0]
+
+
+def cascade_effort(ctrl: CascadeController | ArxController, prep: Prepared,
+                   x: np.ndarray | None = None) -> np.ndarray:
+    """Effort the controller computes from the *measured* position (virtual effort).
+
+    Parameters
+    ----------
+    ctrl : CascadeController or ArxController
+    prep : Prepared
+    x : ndarray, optional
+        Position fed back (default: the measured one), m.
+
+    Returns
+    -------
+    ndarray, shape (K,)
+    """
+    xm = prep.x if x is None else x
+    a, c, r, u_init, y_init = ctrl.arx(prep.inputs)
+    nc = c.shape[0]
+    # xpad[nc - 1 + k] = x[k]; the samples before the run come from y_init = x[-1], x[-2], ...
+    xpad = np.concatenate([y_init[: nc - 1][::-1], xm])
+    fb = r + np.convolve(xpad, c, mode="valid")[: xm.shape[0]] if nc else r.copy()
+    if a.shape[0] == 0:
+        return fb
+    den = np.concatenate([[1.0], -a])
+    zi = signal.lfiltic([1.0], den, u_init)
+    out, _ = signal.lfilter([1.0], den, fb, zi=zi)
+    return out
+
+
+# -- output-error fit ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Param:
+    """One free parameter of an output-error fit.
+
+    Attributes
+    ----------
+    target : str or int
+        Controller attribute (``"wv"``, ``"kp"``, ...) or plant index (``closed_loop.I_*``).
+    log : bool
+        Optimised as a logarithm (positive parameters spanning decades).
+    lo, hi : float
+        Physical bounds.
+    scale : float
+        Typical magnitude (optimiser scaling and finite-difference step).
+    """
+
+    target: str | int
+    log: bool
+    lo: float
+    hi: float
+    scale: float
+
+    def get(self, model: GreyBox) -> float:
+        """Physical value in ``model``."""
+        if isinstance(self.target, str):
+            ctrl = model.controller
+            if self.target.endswith("_per_wv"):
+                return float(getattr(ctrl, self.target[:-7])) / float(ctrl.wv)  # type: ignore
+            return float(getattr(ctrl, self.target))
+        return float(model.plant[self.target])
+
+    def to_theta(self, value: float) -> float:
+        """Optimiser coordinate of a physical value."""
+        v = min(max(value, self.lo), self.hi)
+        return math.log(v) if self.log else v / self.scale
+
+    def from_theta(self, theta: float) -> float:
+        """Physical value of an optimiser coordinate."""
+        return math.exp(theta) if self.log else theta * self.scale
+
+    def bounds(self) -> tuple[float, float]:
+        """Optimiser bounds."""
+        if self.log:
+            return math.log(self.lo), math.log(self.hi)
+        return self.lo / self.scale, self.hi / self.scale
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Physical ranges of the parameters of one run.
+
+    Attributes
+    ----------
+    force : float
+        Force scale: largest effort magnitude (effort unit, or m/s^2 without effort).
+    stroke : float
+        Range of motion, m.
+    v_max : float
+        Largest reference speed, m/s.
+    duration : float
+        Length of the run, s.
+    ts : float
+        Sample time, s.
+    noise : float
+        Noise floor of the position, m.
+    """
+
+    force: float
+    stroke: float
+    v_max: float
+    duration: float
+    ts: float
+    noise: float
+
+    @property
+    def damping_max(self) -> float:
+        """Largest viscous coefficient: the whole force at a tenth of the top speed."""
+        return 10.0 * self.force / max(self.v_max, 1e-9)
+
+
+def _plant_param(i: int, value: float, b: Bounds) -> Param:
+    f, fmax = b.force, 2.0 * b.force
+    if i == CL.I_B:
+        return Param(i, False, 0.0, b.damping_max, max(b.force / max(b.v_max, 1e-9), 1e-12))
+    if i in (CL.I_FC, CL.I_FS):
+        return Param(i, False, 0.0, fmax, f)
+    if i == CL.I_VS:
+        return Param(i, True, max(1e-3 * b.v_max, 1e-7), max(0.5 * b.v_max, 2e-7), 1.0)
+    if i in (CL.I_DFC, CL.I_OFF, CL.I_COGA, CL.I_COGB):
+        return Param(i, False, -fmax, fmax, f)
+    if i == CL.I_DB:
+        return Param(i, False, -b.damping_max, b.damping_max,
+                     max(b.force / max(b.v_max, 1e-9), 1e-12))
+    if i in (CL.I_COGP,):
+        return Param(i, True, value * 0.98, value * 1.02, 1.0)
+    if i == CL.I_PDP:
+        return Param(i, True, value * 0.8, value * 1.25, 1.0)
+    if i == CL.I_PDG:
+        g = 1.8 / max(b.stroke, 1e-9)
+        return Param(i, False, -g, g, 1.0 / max(b.stroke, 1e-9))
+    if i in (CL.I_PDA, CL.I_PDB):
+        return Param(i, False, -0.9, 0.9, 0.3)
+    if i == CL.I_BL:
+        return Param(i, False, 0.0, min(1e-3, 0.2 * b.stroke), max(b.noise, 1e-7))
+    if i == CL.I_THA:
+        d = max(1e-3, 0.1 * b.stroke)
+        return Param(i, False, -d, d, max(b.noise, 1e-7))
+    if i == CL.I_THT:
+        return Param(i, True, b.duration / 100.0, 20.0 * b.duration, 1.0)
+    raise ValueError(f"plant index {i}: no bounds defined")
+
+
+def position_params(model: GreyBox, b: Bounds, *, controller: bool,
+                    effects: Iterable[str] | None = None, damping: bool = True,
+                    controller_box: float | None = None, ki_min_ratio: float = 0.0
+                    ) -> list[Param]:
+    """Free parameters of an output-error fit.
+
+    Parameters
+    ----------
+    model : GreyBox
+    b : Bounds
+    controller : bool
+        Free the cascade controller (only for :class:`CascadeController`).
+    effects : iterable of str, optional
+        Effects whose parameters are free (default: all of the model's).
+    damping : bool
+        Free the viscous damping ``B``.
+    controller_box : float, optional
+        Keep each controller gain within this factor of its current value (feedforward
+        fractions within +-0.1 per unit of the factor above 1). Without it, only the physical
+        ranges of a servo loop apply.
+    ki_min_ratio : float
+        Smallest integral rate, as a fraction of the velocity-loop gain ``wv``.
+    """
+    out: list[Param] = []
+    if controller and isinstance(model.controller, CascadeController):
+        ts = b.ts
+        c = model.controller
+        # a servo loop: velocity bandwidth wv 3 % .. 200 % of the sampling rate (rad/s),
+        # position gain 2 % .. 200 % of wv (a position loop much faster than the velocity loop
+        # inside it does not work), integral rate 2 % .. 50 % of wv (an integral time of at
+        # most 50 loop time constants: without an effort the integral action is hardly
+        # identifiable, and a loop without it lets Coulomb friction imitate backlash),
+        # feedforward up to 1.5
+        rp, ri = c.kp / c.wv, c.ki / c.wv
+        lim = {"wv": (0.03 / ts, 2.0 / ts), "kp": (0.02, 2.0), "ki": (KI_MIN_RATIO, 0.5),
+               "kvff": (0.0, 1.5), "kaff": (0.0, 1.5)}
+        if controller_box is not None:
+            f = float(controller_box)
+            d = 0.1 * (f - 1.0)
+            box = {"wv": (c.wv / f, c.wv * f), "kp": (rp / f, rp * f),
+                   # an integral action cannot be fitted away (friction would then imitate
+                   # backlash), but an integral rate a linear fit could not see (it hardly
+                   # shows without a disturbance) may rise to a usual value, a quarter of wv
+                   "ki": (ri / f, max(ri * f, 0.25)),
+                   "kvff": (c.kvff - d, c.kvff + d), "kaff": (c.kaff - d, c.kaff + d)}
+            lim = {k: (max(lim[k][0], box[k][0]), min(lim[k][1], box[k][1])) for k in lim}
+        lim["ki"] = (max(lim["ki"][0], min(ki_min_ratio, 0.25)), lim["ki"][1])
+        lim = {k: (lo, hi) if hi > lo else (lo, lo * (1 + 1e-9) + 1e-12)
+               for k, (lo, hi) in lim.items()}
+        out += [
+            Param("wv", True, *lim["wv"], 1.0),
+            Param("kp_per_wv", True, *lim["kp"], 1.0),
+            Param("ki_per_wv", False, *lim["ki"], 0.05),
+            Param("kvff", False, *lim["kvff"], 0.5),
+            Param("kaff", False, *lim["kaff"], 0.5),
+        ]
+    if damping:
+        out.append(_plant_param(CL.I_B, model.plant[CL.I_B], b))
+    for e in (model.effects if effects is None else effects):
+        for i in free_indices(e, model.effects):
+            out.append(_plant_param(i, model.plant[i], b))
+    return out
+
+
+def _with_values(model: GreyBox, params: Sequence[Param], values: Sequence[float]) -> GreyBox:
+    ctrl_changes = {}
+    plant = model.plant.copy()
+    for prm, val in zip(params, values, strict=True):
+        if isinstance(prm.target, str):
+            ctrl_changes[prm.target] = float(val)
+        else:
+            plant[prm.target] = float(val)
+    ctrl = model.controller
+    if ctrl_changes and isinstance(ctrl, CascadeController):
+        wv = ctrl_changes.get("wv", ctrl.wv)
+        for key in ("kp", "ki"):
+            # gains given relative to the velocity-loop bandwidth
+            ratio = ctrl_changes.pop(f"{key}_per_wv", None)
+            if ratio is not None:
+                ctrl_changes[key] = ratio * wv
+        ctrl = ctrl.with_values(**ctrl_changes)
+    return model.copy(controller=ctrl, plant=plant)
+
+
+@dataclass
+class PositionFitResult:
+    """Outcome of :meth:`PositionFit.run`."""
+
+    model: GreyBox
+    y: np.ndarray
+    cost: float
+    n_iter: int
+    jac_rows: np.ndarray | None = field(default=None, repr=False)
+
+
+class PositionFit:
+    """Output-error least squares of selected parameters on the measured position.
+
+    Parameters
+    ----------
+    prep : Prepared
+    params : list of Param
+        Free parameters.
+    mask : ndarray of bool, optional
+        Samples whose error is minimised (default: all).
+    w : ndarray, optional
+        Injected effort of the run.
+    """
+
+    def __init__(self, prep: Prepared, params: list[Param], mask: np.ndarray | None = None,
+                 w: np.ndarray | None = None) -> None:
+        self.prep = prep
+        self.params = params
+        self.mask = np.ones(prep.n, dtype=bool) if mask is None else mask
+        self.w = w
+        self.scale = max(prep.noise.rms, 1e-9)
+        self._cache: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _models(self, base: GreyBox, thetas: np.ndarray) -> list[GreyBox]:
+        return [_with_values(base, self.params, [p.from_theta(t) for p, t in
+                                                  zip(self.params, th, strict=True)])
+                for th in thetas]
+
+    def _resid(self, y: np.ndarray) -> np.ndarray:
+        r = (self.prep.x - y)[self.mask] / self.scale
+        bad = ~np.isfinite(r)
+        if bad.any():
+            r = np.where(bad, _DIVERGED, r)
+        return r
+
+    def run(self, model: GreyBox, max_iter: int = 15) -> PositionFitResult:
+        """Fit from ``model``'s current values; returns the fitted model and its position."""
+        if not self.params:
+            y, _ = simulate_position(model, self.prep, self.w)
+            r = self._resid(y)
+            return PositionFitResult(model, y, 0.5 * sumsq(r), 0)
+        theta0 = np.array([p.to_theta(p.get(model)) for p in self.params])
+        lo = np.array([p.bounds()[0] for p in self.params])
+        hi = np.array([p.bounds()[1] for p in self.params])
+        span = hi - lo
+        steps = np.where([p.log for p in self.params], 2e-3, 1e-3)
+        steps = np.minimum(steps, 0.05 * span)
+        last: dict[str, np.ndarray] = {}
+
+        def residuals(thetas: np.ndarray) -> np.ndarray:
+            ys, _, _ = simulate_models(self._models(model, thetas), self.prep, self.w)
+            if thetas.shape[0] == 1:
+                last["theta"], last["y"] = thetas[0].copy(), ys[0]
+            else:
+                last.setdefault("batch", ys)
+                last["batch"], last["thetas"] = ys, thetas.copy()
+            return np.array([self._resid(y) for y in ys])
+
+        sol = levenberg_marquardt(residuals, theta0, lo, hi, steps, max_iter=max_iter)
+        fitted = self._models(model, sol.theta[None, :])[0]
+        y = None  # type: ignore[assignment]
+        if "theta" in last and np.array_equal(last["theta"], sol.theta):
+            y = last["y"]
+        elif "thetas" in last:
+            hit = np.flatnonzero(np.all(last["thetas"] == sol.theta[None, :], axis=1))
+            if hit.size:
+                y = last["batch"][hit[0]]
+        if y is None:
+            y = simulate_position(fitted, self.prep, self.w)[0]
+        return PositionFitResult(fitted, y, sol.cost, sol.n_iter, sol.jac_rows)
+
+
+# -- inverse dynamics ---------------------------------------------------------------------------
+class InverseDynamics:
+    """Least-squares inverse dynamics ``u = M a + B v + F_eff(x, v)`` (IDIM-LS).
+
+    Columns are built at the full rate from the filtered motion of ``prep`` and decimated in
+    parallel with the effort; the fit and its error are computed on the decimated rows.
+
+    Parameters
+    ----------
+    prep : Prepared
+    u : ndarray, shape (K,)
+        Effort (measured, or the controller's virtual effort).
+    label : str
+        Cache key of this effort.
+    """
+
+    def __init__(self, prep: Prepared, u: np.ndarray, label: str = "u") -> None:
+        self.prep = prep
+        self.label = label
+        self.u_dec = prep.dec(("effort", label), u)
+        self.a_dec = prep.dec("a", prep.af)
+        self.v_dec = prep.dec("v", prep.vf)
+        self.x_dec = prep.dec("x", prep.xf)
+        self.n_dec = self.u_dec.shape[0]
+        self._layouts: dict[object, tuple[tuple[int, ...], np.ndarray]] = {}
+
+    # ---- prediction with the exact force law
+    def predict(self, p: np.ndarray) -> np.ndarray:
+        """Decimated effort predicted by plant row ``p``."""
+        force = p[CL.I_M] * self.prep.af + CL.sliding_force(p, self.prep.xf, self.prep.vf)
+        return decimate_columns(force, self.prep.decim)
+
+    def relerr(self, p: np.ndarray, rows: np.ndarray | None = None) -> float:
+        """``100 ||u - u_hat|| / ||u||`` on the decimated rows (all, or ``rows``)."""
+        r = self.u_dec - self.predict(p)
+        if rows is not None:
+            return float(100.0 * np.sqrt(sumsq(r[rows]) / sumsq(self.u_dec[rows])))
+        return float(100.0 * np.sqrt(sumsq(r) / sumsq(self.u_dec)))
+
+    # ---- regression
+    def _columns(self, name: str, p: np.ndarray, effects: tuple[str, ...]
+                 ) -> tuple[np.ndarray, tuple[int, ...], np.ndarray]:
+        nl = IDIM_NONLINEAR.get(name)
+        key_nl = float(p[nl]) if nl is not None else None
+        key = ("col", name, key_nl, "force_offset" in effects,
+               float(p[CL.I_XC]) if name == "position_dependent_friction" else None)
+        if key not in self._layouts:
+            cols, targets, scale = idim_columns(name, p, effects, self.prep.xf, self.prep.vf)
+            self.prep.dec(key, cols)
+            self._layouts[key] = (targets, scale)
+        targets, scale = self._layouts[key]
+        return self.prep.dec(key), targets, scale
+
+    def design(self, effects: tuple[str, ...], p: np.ndarray
+               ) -> tuple[np.ndarray, list[tuple[int, float]]]:
+        """Decimated regressors of the model with ``effects``; layout of the coefficients."""
+        cols = [self.a_dec[:, None], self.v_dec[:, None]]
+        layout: list[tuple[int, float]] = [(CL.I_M, 1.0), (CL.I_B, 1.0)]
+        for e in effects:
+            if e in ("backlash", "thermal_drift"):
+                continue
+            c, targets, scale = self._columns(e, p, effects)
+            cols.append(c)
+            layout += list(zip(targets, scale, strict=True))
+        return np.hstack(cols), layout
+
+    def _solve(self, effects: tuple[str, ...], p: np.ndarray, rows: np.ndarray
+               ) -> tuple[np.ndarray, float]:
+        X, layout = self.design(effects, p)
+        # physical signs: mass, damping, Coulomb and Stribeck levels are not negative
+        nonneg = np.array([t in (CL.I_M, CL.I_B, CL.I_FC, CL.I_FS) for t, _ in layout])
+        Xr, ur = X[rows], self.u_dec[rows]
+        coef = solve_ls(Xr, ur, nonneg)
+        out = p.copy()
+        for (target, s), cf in zip(layout, coef, strict=True):
+            out[target] = cf * s if s != 0.0 else 0.0
+        if "position_dependent_friction" in effects:
+            fc = out[CL.I_FC]
+            for (target, s), cf in zip(layout, coef, strict=True):
+                if s == 0.0:
+                    out[target] = cf / fc if abs(fc) > 1e-12 else 0.0
+        return out, sumsq(ur - matvec(Xr, coef))
+
+    def _search_nonlinear(self, name: str, effects: tuple[str, ...], p: np.ndarray,
+                          rows: np.ndarray, start: bool) -> np.ndarray:
+        """Refine (``start=False``) or find (``start=True``) the nonlinear parameter of an
+        effect by variable projection on ``rows``."""
+        idx = IDIM_NONLINEAR[name]
+        pr = self.prep
+
+        def sse_at(val: float) -> float:
+            q = p.copy()
+            q[idx] = val
+            return self._solve(effects, q, rows)[1]
+
+        if name == "stribeck_friction":
+            lo, hi = max(1e-3 * pr.v_max, 1e-7), max(0.5 * pr.v_max, 2e-7)
+            grid = np.geomspace(lo, hi, 14) if start else np.array([p[idx]])
+        elif name == "cogging":
+            moving = np.abs(self.v_dec) > 0.05 * pr.v_max
+            lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
+                np.abs(pr.vf[np.abs(pr.vf) > 0.05 * pr.v_max])) if np.any(
+                np.abs(pr.vf) > 0.05 * pr.v_max) else 1e-4))
+            hi = pr.stroke / 3.0
+            if start:
+                base = tuple(e for e in effects if e != "cogging")
+                pb, _ = self._solve(base, p, rows)
+                resid = self.u_dec - self.predict(pb)
+                sel = moving & rows
+                grid = np.array(period_candidates(self.x_dec, resid, sel, lo, hi, n_best=4))
+                if grid.size == 0:
+                    return p
+            else:
+                grid = np.array([p[idx]])
+        elif name == "position_dependent_friction":
+            lo, hi = pr.stroke / 8.0, 2.0 * pr.stroke
+            grid = np.geomspace(lo, hi, 10) if start else np.array([p[idx]])
+        else:
+            raise ValueError(f"effect={name!r} has no nonlinear parameter")
+        best_val, best_sse = float(grid[0]), math.inf
+        for g in grid:
+            s = sse_at(float(g))
+            if s < best_sse:
+                best_val, best_sse = float(g), s
+        # continuous refinement (log coordinate) around the best grid point
+        if name == "cogging":
+            df = 1.0 / best_val * (0.01 if not start else 0.02)
+            bracket = (math.log(1.0 / (1.0 / best_val + df)), math.log(1.0 / max(
+                1.0 / best_val - df, 1e-12)))
+        elif start and grid.size > 1:
+            ratio = (grid[1] / grid[0]) ** 1.0
+            bracket = (math.log(best_val / ratio), math.log(best_val * ratio))
+        else:
+            bracket = (math.log(best_val) - 0.2, math.log(best_val) + 0.2)
+        res = optimize.minimize_scalar(lambda lv: sse_at(math.exp(lv)), bounds=bracket,
+                                       method="bounded", options={"xatol": 1e-4})
+        out = p.copy()
+        out[idx] = math.exp(res.x) if res.fun < best_sse else best_val
+        return out
+
+    def fit(self, effects: tuple[str, ...], p: np.ndarray, rows: np.ndarray | None = None,
+            new: str | None = None) -> np.ndarray:
+        """Least-squares plant row for ``effects`` on ``rows`` (default all).
+
+        Nonlinear parameters are searched for the ``new`` effect and refined for the others.
+        """
+        rows = np.ones(self.n_dec, dtype=bool) if rows is None else rows
+        rows = rows & self.prep.sliding_dec
+        q = p.copy()
+        if "position_dependent_friction" in effects:
+            q[CL.I_XC] = self.prep.center
+        for e in effects:
+            if e in IDIM_NONLINEAR:
+                q = self._search_nonlinear(e, effects, q, rows, start=(e == new))
+        out, _ = self._solve(effects, q, rows)
+        return out
+
+    def cv_sse(self, effects: tuple[str, ...], p: np.ndarray, new: str | None = None
+               ) -> tuple[float, list[np.ndarray]]:
+        """Held-out squared error: fit on one fold, evaluate on the other, both ways."""
+        total = 0.0
+        fits = []
+        for k in (0, 1):
+            train = self.prep.folds_dec != k
+            q = self.fit(effects, p, train, new)
+            r = (self.u_dec - self.predict(q))[~train & self.prep.sliding_dec]
+            total += sumsq(r)
+            fits.append(q)
+        return total, fits
+
+
+def prediction_floor(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,
+                     seed: int = 0) -> float:
+    """Rms position error a perfect deterministic model would still make on this run, m.
+
+    The measured noise and quantisation (``prep.noise``) are injected into the model's sensors:
+    the logged position carries them, and the loop reacts to them (with stiction, the moment
+    of a breakaway depends on them). The rms difference to the noise-free simulation is the
+    floor of a free-run prediction.
+    """
+    rng = np.random.default_rng(seed)
+    noise = prep.noise.sigma * rng.standard_normal(prep.n)
+    ys, _, status = simulate_models([model, model], prep, w)
+    y_clean = ys[0]
+    y_noisy = simulate_models([model], prep, w, noise=noise, quant=prep.noise.quantum)[0][0]
+    d = y_noisy - y_clean
+    if not np.all(np.isfinite(d)):
+        return prep.noise.rms
+    return float(max(np.sqrt(np.mean(d**2)), prep.noise.rms))

@@ -1,0 +1,826 @@
+"""Forward selection of effects, judged on held-out data.
+
+Each step tries every candidate effect that is not yet in the model, scores it by the error it
+removes on *held-out* samples (two folds of interleaved time blocks: fit on one, score on the
+other, both ways), adds the best one if the gain is significant and the effect has a physical
+size, refits every parameter with it (grey box) and repeats.
+
+* With a measured effort, force effects are judged on the effort of the inverse dynamics
+  (linear least squares: fast and well conditioned); output effects (backlash, thermal drift)
+  on the free-run position, since they do not change the effort.
+* Without an effort, every effect is judged on the free-run position. A linearised screen
+  (finite-difference columns of each candidate at a probe size or at a start found by the
+  inverse dynamics of the controller's virtual effort, next to the Jacobian of the current
+  parameters) ranks the candidates; the best few - and Coulomb friction while it is missing,
+  and the runners-up of the previous step - are then fitted for real (nonlinear output
+  error) on each fold. The loop gains are hardly identifiable from the position alone (with
+  feedforward the reference is tracked whatever they are), so while a candidate is judged
+  they may only move by a factor ``EVAL_BOX`` and the integral action may not vanish: an
+  effect must explain the residual through the loop as it is, not by changing the loop (the
+  known ways to mistake friction for backlash or a slow loop for thermal drift). Before the
+  first effect, the fits also start from the loop identified together with a Coulomb force
+  (:func:`fricbench.sysid.diagnose.baselines.friction_aware_loop`).
+
+Significance: with ``rho`` the ratio of held-out squared errors with and without the
+candidate, a candidate with ``p`` parameters must reach ``-ln(rho) >= min_gain +
+gain_per_param * p``; among those that do, the one with the largest gain *per parameter* wins
+(the simplest sufficient explanation first). The search stops when nothing passes, or when
+the position residual is at the noise floor of a free-run prediction.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.controllers import CascadeController
+from fricbench.sysid.diagnose.effects import EFFECTS, describe_parameters, free_indices
+from fricbench.sysid.diagnose.leastsq import matvec, solve_ls, sumsq
+from fricbench.sysid.diagnose.models import (
+    Bounds,
+    GreyBox,
+    InverseDynamics,
+    PositionFit,
+    PositionFitResult,
+    cascade_effort,
+    position_params,
+    prediction_floor,
+    simulate_models,
+    simulate_position,
+)
+from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.signals import period_candidates
+
+__all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """Thresholds of the forward selection.
+
+    Parameters
+    ----------
+    min_gain : float
+        Required ``-ln`` of the held-out error ratio, whatever the effect.
+    gain_per_param : float
+        Extra required ``-ln`` ratio per parameter of the effect (complexity penalty).
+    min_force_share : float
+        Smallest rms force of a force effect relative to the rms effort (with effort).
+    min_position_share : float
+        Smallest rms position contribution of an effect relative to the noise floor.
+    floor_factor : float
+        Stop when the position residual is below this multiple of the noise floor.
+    max_steps : int
+        Most effects added.
+    n_confirm : int
+        Candidates fitted for real per step (no effort).
+    candidates : tuple of str
+        The effects tried (default: the whole library).
+    """
+
+    min_gain: float = 0.03
+    gain_per_param: float = 0.01
+    min_force_share: float = 0.005
+    min_position_share: float = 0.5
+    floor_factor: float = 1.25
+    max_steps: int = 8
+    n_confirm: int = 2
+    candidates: tuple[str, ...] = tuple(EFFECTS)
+
+    def required(self, n_params: int) -> float:
+        """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters."""
+        return self.min_gain + self.gain_per_param * n_params
+
+
+@dataclass
+class CandidateScore:
+    """How one candidate fared at one step."""
+
+    effect: str
+    n_params: int
+    heldout_ratio: float
+    judged_on: str
+    size: float = float("nan")
+    size_ok: bool = True
+    note: str = ""
+
+    @property
+    def gain(self) -> float:
+        """``-ln`` of the held-out error ratio."""
+        return -math.log(max(self.heldout_ratio, 1e-300))
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready form."""
+        return {"effect": self.effect, "n_params": self.n_params,
+                "heldout_error_ratio": self.heldout_ratio,
+                "heldout_gain_pct": 100.0 * (1.0 - self.heldout_ratio),
+                "judged_on": self.judged_on, "size": self.size, "size_ok": self.size_ok,
+                "note": self.note}
+
+
+@dataclass
+class Step:
+    """One step of the search: the model after adding ``effect`` (None: the linear model)."""
+
+    effect: str | None
+    model: GreyBox
+    y: np.ndarray = field(repr=False)
+    position_rms: float
+    position_max: float
+    effort_relerr_pct: float | None
+    candidates: list[CandidateScore] = field(default_factory=list)
+    heldout_ratio: float | None = None
+
+
+@dataclass
+class SearchResult:
+    """All steps and why the search stopped."""
+
+    steps: list[Step]
+    stop_reason: str
+    floor: float
+    elapsed_s: float
+
+    @property
+    def final(self) -> Step:
+        """The last accepted step."""
+        return self.steps[-1]
+
+
+# -- helpers --------------------------------------------------------------------------------------
+def _rms(r: np.ndarray) -> float:
+    return float(np.sqrt(sumsq(r) / r.shape[0])) if np.all(np.isfinite(r)) else float("inf")
+
+
+def _n_params(effect: str, effects: tuple[str, ...]) -> int:
+    return len(free_indices(effect, effects))
+
+
+def _available(model: GreyBox, prep: Prepared, settings: SearchSettings) -> list[str]:
+    out = []
+    for name in settings.candidates:
+        spec = EFFECTS[name]
+        if name in model.effects:
+            continue
+        if any(r not in model.effects for r in spec.requires):
+            continue
+        if spec.needs_reversals and prep.run.n_reversals == 0:
+            continue
+        if name == "thermal_drift" and prep.duration < 2.0:
+            continue
+        out.append(name)
+    return out
+
+
+def _init_effect(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> GreyBox:
+    """Model with effect ``name`` switched on at neutral values (fit starts)."""
+    p = model.plant.copy()
+    if name == "position_dependent_friction":
+        p[CL.I_XC] = prep.center
+    return model.copy(plant=p, effects=model.effects + (name,))
+
+
+def _position_sse(y: np.ndarray, prep: Prepared, mask: np.ndarray) -> float:
+    r = (prep.x - y)[mask]
+    return sumsq(r) if np.all(np.isfinite(r)) else float("inf")
+
+
+# -- with an effort -------------------------------------------------------------------------------
+def _output_fit(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
+                mask: np.ndarray | None, max_iter: int = 12) -> PositionFitResult:
+    outputs = [e for e in model.effects if EFFECTS[e].kind == "output"]
+    fit = PositionFit(prep, position_params(model, b, controller=False, effects=outputs,
+                                            damping=False), mask, w)
+    return fit.run(model, max_iter=max_iter)
+
+
+def _thermal_start(model: GreyBox, prep: Prepared, y: np.ndarray, mask: np.ndarray) -> GreyBox:
+    """Thermal drift start: best time constant on a grid, amplitude by least squares."""
+    r = (prep.x - y)
+    t = prep.inputs.t
+    best = (math.inf, 0.0, prep.duration)
+    for tau in prep.duration * np.array([0.03, 0.1, 0.3, 1.0, 3.0]):
+        col = 1.0 - np.exp(-t / tau)
+        den = sumsq(col[mask])
+        if den <= 0:
+            continue
+        amp = float(np.einsum("i,i->", col[mask], r[mask])) / den
+        sse = float(np.sum((r[mask] - amp * col[mask]) ** 2))
+        if sse < best[0]:
+            best = (sse, amp, tau)
+    p = model.plant.copy()
+    p[CL.I_THA] = best[1]
+    p[CL.I_THT] = best[2]
+    return model.copy(plant=p)
+
+
+def _backlash_start(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
+                    mask: np.ndarray) -> GreyBox:
+    """Backlash start: the best of a few sizes (the play is not smooth at zero)."""
+    hi = min(1e-3, 0.2 * b.stroke)
+    sizes = [s for s in np.geomspace(max(b.noise, 1e-8), hi, 8)]
+    models = []
+    for s in sizes:
+        p = model.plant.copy()
+        p[CL.I_BL] = s
+        models.append(model.copy(plant=p))
+    ys, _, _ = simulate_models(models, prep, w)
+    sse = [_position_sse(y, prep, mask) for y in ys]
+    return models[int(np.argmin(sse))]
+
+
+def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
+                      w: np.ndarray | None, y: np.ndarray) -> tuple[float, list[GreyBox]]:
+    """Held-out position ratio of an output effect added to a fixed model."""
+    base_sse = 0.0
+    cand_sse = 0.0
+    fits = []
+    for k in (0, 1):
+        train = prep.folds != k
+        m = _init_effect(model, name, prep, b)
+        if name == "thermal_drift":
+            m = _thermal_start(m, prep, y, train)
+        else:
+            m = _backlash_start(m, prep, b, w, train)
+        res = _output_fit(m, prep, b, w, train)
+        fits.append(res.model)
+        base_sse += _position_sse(y, prep, ~train)
+        cand_sse += _position_sse(res.y, prep, ~train)
+    return cand_sse / max(base_sse, 1e-300), fits
+
+
+def _effect_position_size(model: GreyBox, name: str, prep: Prepared, w: np.ndarray | None,
+                          y: np.ndarray) -> float:
+    y0, _ = simulate_position(model.without(name), prep, w)
+    return _rms(y - y0)
+
+
+def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b: Bounds,
+                        settings: SearchSettings, w: np.ndarray | None,
+                        log: Callable[[str], None]) -> tuple[list[Step], str, float]:
+    y, _ = simulate_position(model, prep, w)
+    steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))),
+                  idim.relerr(model.plant))]
+    u_rms = float(np.sqrt(np.mean(idim.u_dec**2)))
+    floor = prediction_floor(model, prep, w)
+    reason = f"reached the maximum of {settings.max_steps} effects"
+    for _ in range(settings.max_steps):
+        cur = steps[-1]
+        m = cur.model
+        base_cv, _ = idim.cv_sse(m.effects, m.plant)
+        scores: list[CandidateScore] = []
+        proposals: dict[str, GreyBox] = {}
+        for name in _available(m, prep, settings):
+            effects = m.effects + (name,)
+            n_par = _n_params(name, effects)
+            if EFFECTS[name].kind == "force":
+                p0 = _init_effect(m, name, prep, b).plant
+                cv, _ = idim.cv_sse(effects, p0, new=name)
+                ratio = cv / max(base_cv, 1e-300)
+                p_all = idim.fit(effects, p0, new=name)
+                force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
+                share = _rms(force) / max(u_rms, 1e-300)
+                sc = CandidateScore(name, n_par, ratio, "effort", share,
+                                    share >= settings.min_force_share)
+                proposals[name] = m.copy(plant=p_all, effects=effects)
+            else:
+                ratio, _ = _output_candidate(m, name, prep, b, w, cur.y)
+                fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
+                                     None)
+                m_new = fitted.model
+                size = _effect_position_size(m_new, name, prep, w, fitted.y)
+                sc = CandidateScore(name, n_par, ratio, "position", size / floor,
+                                    size >= settings.min_position_share * floor)
+                proposals[name] = m_new
+            scores.append(sc)
+            log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
+                f"({n_par} par){'' if sc.size_ok else ' too small'}")
+        # force effects first: an output effect cannot change the effort, and while a force
+        # effect is missing the position residual it leaves can look like an output effect
+        winner = _pick([s for s in scores if s.judged_on == "effort"], settings)
+        if winner is None:
+            winner = _pick(scores, settings)
+        if winner is None:
+            reason = "no candidate improves the held-out error significantly"
+            cur.candidates = scores
+            break
+        new = proposals[winner.effect]
+        if EFFECTS[winner.effect].kind == "force" and any(
+                EFFECTS[e].kind == "output" for e in new.effects):
+            new = _output_fit(new, prep, b, w, None).model
+        y_new, _ = simulate_position(new, prep, w)
+        step = Step(winner.effect, new, y_new, _rms(prep.x - y_new),
+                    float(np.max(np.abs(prep.x - y_new))), idim.relerr(new.plant), scores,
+                    winner.heldout_ratio)
+        steps.append(step)
+        log(f"  + {winner.effect}: effort relerr {step.effort_relerr_pct:.3f} %, position rms "
+            f"{step.position_rms:.3g} m")
+    return steps, reason, floor
+
+
+def _zero_effect(p: np.ndarray, name: str, effects: tuple[str, ...]) -> np.ndarray:
+    q = p.copy()
+    for i in free_indices(name, effects):
+        if i not in (CL.I_VS, CL.I_COGP, CL.I_PDP, CL.I_THT):
+            q[i] = 0.0
+    if name == "asymmetric_friction":
+        q[CL.I_DFC] = 0.0
+    return q
+
+
+def _start_output(model: GreyBox, name: str, prep: Prepared, b: Bounds, w: np.ndarray | None,
+                  y: np.ndarray) -> GreyBox:
+    m = _init_effect(model, name, prep, b)
+    allm = np.ones(prep.n, dtype=bool)
+    if name == "thermal_drift":
+        return _thermal_start(m, prep, y, allm)
+    return _backlash_start(m, prep, b, w, allm)
+
+
+def _pick(scores: list[CandidateScore], settings: SearchSettings) -> CandidateScore | None:
+    ok = [s for s in scores if s.size_ok and s.gain >= settings.required(s.n_params)]
+    if not ok:
+        return None
+    return max(ok, key=lambda s: s.gain / s.n_params)
+
+
+# -- without an effort ----------------------------------------------------------------------------
+@dataclass
+class _Probe:
+    """Finite-difference columns of one candidate variant.
+
+    Without ``ref``, column ``j`` is ``(y(models[j]) - y_current) / sizes[j]``: the effect's
+    parameter ``indices[j]`` switched on at ``sizes[j]``. With ``ref`` (a start found by the
+    inverse dynamics), the columns are the secant ``y(ref) - y_current`` and the derivatives
+    ``(y(models[j]) - y(ref)) / sizes[j]`` around it.
+    """
+
+    effect: str
+    models: list[GreyBox]
+    sizes: list[float]
+    indices: list[int]
+    start: GreyBox
+    ref: GreyBox | None = None
+
+
+_FORCE_LIKE = (CL.I_FC, CL.I_FS, CL.I_DFC, CL.I_OFF, CL.I_COGA, CL.I_COGB, CL.I_DB)
+
+
+def _idim_probe(model: GreyBox, name: str, prep: Prepared, b: Bounds,
+                idim: InverseDynamics) -> _Probe | None:
+    """A start for force effect ``name`` from the inverse dynamics of the virtual effort.
+
+    Without a measured effort, the identified controller applied to the measured position
+    gives the effort the drive must have applied (noisy, but decimation filters it). Its
+    inverse dynamics find periods, Stribeck velocities and sizes far more directly than the
+    position residual, where the loop filters and delays every force.
+    """
+    m0 = _init_effect(model, name, prep, b)
+    try:
+        q = idim.fit(m0.effects, m0.plant, new=name)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(q)) or q[CL.I_M] <= 0.0:
+        return None
+    p = m0.plant.copy()
+    idx = free_indices(name, m0.effects)
+    for i in idx:
+        # the virtual effort's mass is not exactly the model's unit mass: rescale forces
+        p[i] = q[i] / q[CL.I_M] if i in _FORCE_LIKE else q[i]
+    if name == "position_dependent_friction":
+        p[CL.I_XC] = q[CL.I_XC]
+    dummy = _Probe(name, [], [], list(idx), m0)
+    p = _physical(p, name, b, dummy)
+    ref = m0.copy(plant=p)
+    mods, sizes, inds = [], [], []
+    for i in idx:
+        if i in (CL.I_VS, CL.I_COGP, CL.I_PDP, CL.I_THT):
+            continue
+        if i in _FORCE_LIKE:
+            h = 0.2 * abs(p[i]) + 0.02 * b.force
+        elif i == CL.I_PDG:
+            h = 0.2 * abs(p[i]) + 0.05 / b.stroke
+        else:
+            h = 0.2 * abs(p[i]) + 0.05
+        qq = p.copy()
+        qq[i] += h
+        mods.append(m0.copy(plant=qq))
+        sizes.append(h)
+        inds.append(i)
+    return _Probe(name, mods, sizes, inds, ref, ref)
+
+
+def _probes(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray
+            ) -> list[_Probe]:
+    """Variants of a candidate with the parameters to probe (column per parameter)."""
+    F = b.force
+    m0 = _init_effect(model, name, prep, b)
+    effects = m0.effects
+    p = m0.plant
+    out: list[_Probe] = []
+
+    def probe(changes: dict[int, float], fixed: dict[int, float]) -> _Probe:
+        base = p.copy()
+        for i, v in fixed.items():
+            base[i] = v
+        mods, sizes, idx = [], [], []
+        for i, v in changes.items():
+            q = base.copy()
+            q[i] = v
+            mods.append(m0.copy(plant=q))
+            sizes.append(v)
+            idx.append(i)
+        return _Probe(name, mods, sizes, idx, m0.copy(plant=base))
+
+    fc = max(p[CL.I_FC], 0.1 * F)
+    if name == "coulomb_friction":
+        out.append(probe({CL.I_FC: 0.3 * F}, {}))
+    elif name == "stribeck_friction":
+        for frac in (0.01, 0.05, 0.25):
+            out.append(probe({CL.I_FS: 0.3 * fc}, {CL.I_VS: max(frac * b.v_max, 1e-6)}))
+    elif name == "asymmetric_friction":
+        ch = {CL.I_DB: 0.3 * (p[CL.I_B] + F / b.v_max)}
+        if CL.I_DFC in free_indices(name, effects):
+            ch[CL.I_DFC] = 0.2 * fc
+        out.append(probe(ch, {}))
+    elif name == "force_offset":
+        out.append(probe({CL.I_OFF: 0.1 * F}, {}))
+    elif name == "cogging":
+        r = prep.x - y
+        v = prep.vf
+        moving = np.abs(v) > 0.05 * b.v_max
+        lo = max(1e-4, 20.0 * prep.noise.rms)
+        periods = []
+        for sgn in (1.0, -1.0):
+            sel = moving & (np.sign(v) == sgn)
+            periods += period_candidates(prep.xf, r, sel, lo, b.stroke / 3.0, n_best=2)
+        uniq: list[float] = []
+        for per in periods:
+            if all(abs(per / q - 1.0) > 0.02 for q in uniq):
+                uniq.append(per)
+        for per in uniq[:3]:
+            out.append(probe({CL.I_COGA: 0.2 * F, CL.I_COGB: 0.2 * F}, {CL.I_COGP: per}))
+    elif name == "position_dependent_friction":
+        for per in (b.stroke / 3.0, b.stroke / 1.5, 1.5 * b.stroke):
+            out.append(probe({CL.I_PDG: 0.3 / b.stroke, CL.I_PDA: 0.3, CL.I_PDB: 0.3},
+                             {CL.I_PDP: per, CL.I_XC: prep.center}))
+    elif name == "backlash":
+        for s in (3.0 * b.noise, 30.0 * b.noise):
+            out.append(probe({CL.I_BL: min(max(s, 1e-8), 0.2 * b.stroke)}, {}))
+    elif name == "thermal_drift":
+        for tau in prep.duration * np.array([0.05, 0.2, 1.0, 5.0]):
+            out.append(probe({CL.I_THA: max(b.noise, 1e-7)}, {CL.I_THT: tau}))
+    return out
+
+
+def _linear_cv(r0: np.ndarray, rows: np.ndarray, folds: np.ndarray) -> float:
+    """Held-out SSE of a linearised refit ``r0 ~ J d`` (fit on one fold, score the other).
+
+    ``rows`` is the Jacobian with one row per parameter, shape (p, n).
+    """
+    total = 0.0
+    for k in (0, 1):
+        tr, te = folds != k, folds == k
+        coef = solve_ls(rows[:, tr].T, r0[tr], rcond=1e-8) if rows.shape[0] else None
+        pred = matvec(rows[:, te].T, coef) if coef is not None else 0.0
+        total += sumsq(r0[te] - pred)
+    return total
+
+
+FLOOR_NOISE_FACTOR = 3.0
+"""Lower bound of the free-run noise floor, in units of the measured sensor noise."""
+
+EVAL_BOX = 2.0
+"""While a candidate is judged, each loop gain may move by this factor at most."""
+
+REFIT_BOX = 3.0
+"""In the refit of an accepted model, each loop gain may move by this factor at most."""
+
+
+def _eval_params(model: GreyBox, b: Bounds) -> list:
+    """Free parameters while judging a candidate: plant, effects and a boxed loop.
+
+    The loop gains may only move within a factor ``EVAL_BOX`` of their current values: this
+    keeps one effect from imitating another through a changed loop (with its integral action
+    fitted away, Coulomb friction leaves a direction-dependent offset that looks like
+    backlash; a slow position loop imitates a thermal drift).
+    """
+    return position_params(model, b, controller=True, controller_box=EVAL_BOX)
+
+
+def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray,
+                  mask: np.ndarray) -> GreyBox:
+    m = _init_effect(model, name, prep, b)
+    if name == "thermal_drift":
+        return _thermal_start(m, prep, y, mask)
+    return _backlash_start(m, prep, b, None, mask)
+
+
+_Variant = tuple[float, _Probe, np.ndarray]
+
+# starts tried per candidate in the real fits: the Stribeck velocity makes the error surface
+# multimodal (periods come from the inverse dynamics of the virtual effort, accurately)
+_N_STARTS = {"stribeck_friction": 2}
+
+
+def _variant_start(variant: _Variant, name: str, b: Bounds) -> GreyBox:
+    """Start of a real fit from a screened variant (its linearised amplitudes, clipped)."""
+    _, pr, amp = variant
+    if pr.ref is not None:
+        return pr.start
+    q = pr.start.plant.copy()
+    for i, s_, a in zip(pr.indices, pr.sizes, amp, strict=True):
+        q[i] = a if np.isfinite(a) else s_
+    return pr.start.copy(plant=_physical(q, name, b, pr))
+
+
+def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: SearchSettings,
+            tag: int) -> dict[str, list[_Variant]]:
+    """Linearised held-out ratio of every available candidate around model ``m``.
+
+    Columns: the Jacobian of ``m``'s own parameters (a linearised refit) and, per candidate
+    variant, finite-difference columns of its parameters; fitted on one fold, scored on the
+    other. Returns the variants of each candidate, best first, with amplitude estimates.
+    """
+    scale = max(prep.noise.rms, 1e-9)
+    r0 = (prep.x - y) / scale
+    res0 = PositionFit(prep, _eval_params(m, b)).run(m, max_iter=1)
+    jac = res0.jac_rows if res0.jac_rows is not None else np.zeros((0, prep.n))
+    base_lin = _linear_cv(r0, jac, prep.folds)
+    probes: list[_Probe] = []
+    key = hash(m.controller) if isinstance(m.controller, CascadeController) else 0
+    idim_v = InverseDynamics(prep, cascade_effort(m.controller, prep), f"virtual-{tag}-{key}")
+    for name in _available(m, prep, settings):
+        if EFFECTS[name].kind == "force":
+            pr_idim = _idim_probe(m, name, prep, b, idim_v)
+            if pr_idim is not None:
+                probes.append(pr_idim)
+        probes += _probes(m, name, prep, b, y)
+    rows = []
+    for pr in probes:
+        rows += ([pr.ref] if pr.ref is not None else []) + pr.models
+    ys = simulate_models(rows, prep)[0] if rows else np.zeros((0, prep.n))
+    screen: dict[str, list[_Variant]] = {}
+    j = 0
+    for pr in probes:
+        cols = []
+        y_ref = y
+        if pr.ref is not None:
+            y_ref = ys[j]
+            cols.append(-(y_ref - y) / scale)
+            j += 1
+        for s_ in pr.sizes:
+            cols.append(-(ys[j] - y_ref) / scale / s_)
+            j += 1
+        Jc = np.array(cols)
+        if not np.all(np.isfinite(Jc)):
+            continue
+        full = np.vstack([jac, Jc])
+        ratio = _linear_cv(r0, full, prep.folds) / max(base_lin, 1e-300)
+        # amplitude estimate on all samples, for the start of the real fit
+        amp = solve_ls(full.T, r0, rcond=1e-8)[jac.shape[0]:]
+        screen.setdefault(pr.effect, []).append((ratio, pr, amp))
+    for variants in screen.values():
+        variants.sort(key=lambda v: v[0])
+    return screen
+
+
+def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
+                           settings: SearchSettings, log: Callable[[str], None],
+                           jac: np.ndarray | None, alt_loops: tuple = (),
+                           budget_iter: int = 5) -> tuple[list[Step], str, float]:
+    steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))), None)]
+    floor_linear = prediction_floor(model, prep)
+    floor = floor_linear
+    reason = f"reached the maximum of {settings.max_steps} effects"
+    runners_up: set[str] = set()
+    for _ in range(settings.max_steps):
+        cur = steps[-1]
+        m = cur.model
+        # a poorly damped model exaggerates the noise it is fed: take the lower estimate;
+        # a fitted model is also smoother than the axis (less stiction, so less sensitive to
+        # noise): with stiction in the loop, runs deviate by 3..6 times the sensor noise from
+        # their noise-free twins (measured on simulated axes), hence the lower bound
+        floor = max(min(prediction_floor(m, prep), floor_linear),
+                    FLOOR_NOISE_FACTOR * prep.noise.rms)
+        if cur.position_rms <= floor:
+            reason = (f"the position residual ({cur.position_rms:.3g} m rms) is at the noise "
+                      f"floor of a free-run prediction ({floor:.3g} m): nothing left to explain")
+            break
+        # ---- linearised screen (under each loop estimate, before the first effect)
+        variants: dict[str, list[_Variant]] = {}
+        bases = [(m, cur.y)]
+        if len(steps) == 1:
+            for loop in alt_loops:
+                m_alt = m.copy(controller=loop)
+                bases.append((m_alt, simulate_position(m_alt, prep)[0]))
+        for m_s, y_s in bases:
+            for name, found in _screen(m_s, y_s, prep, b, settings, len(steps)).items():
+                variants[name] = sorted(variants.get(name, []) + found, key=lambda v: v[0])
+        screen = {name: v[0] for name, v in variants.items()}
+        ranked = sorted(screen.items(), key=lambda kv: math.log(max(kv[1][0], 1e-300))
+                        / _n_params(kv[0], m.effects + (kv[0],)))
+        for name, (ratio, _, _) in ranked:
+            log(f"    screen {name:28s} linearised held-out error x{ratio:.3f}")
+        # ---- confirm the best few with real fits on each fold (loop frozen)
+        # the loop is least certain before the first effect: there, every fold fit starts
+        # from each of the given loops too and keeps the better fit of its training fold
+        loops = [m.controller] + (list(alt_loops) if len(steps) == 1 else [])
+
+        def fold_fit(start: GreyBox, train: np.ndarray,
+                     loops: list = loops) -> PositionFitResult:
+            best: PositionFitResult | None = None
+            for loop in loops:
+                s0 = start.copy(controller=loop)
+                res = PositionFit(prep, _eval_params(s0, b), train).run(s0, max_iter=budget_iter)
+                if best is None or res.cost < best.cost:
+                    best = res
+            assert best is not None
+            return best
+
+        base_heldout = 0.0
+        for k in (0, 1):
+            fk = fold_fit(m, prep.folds != k)
+            base_heldout += _position_sse(fk.y, prep, prep.folds == k)
+        scores: list[CandidateScore] = []
+        confirmed: dict[str, dict[int, PositionFitResult]] = {}
+        n_confirm = settings.n_confirm + (1 if len(loops) > 1 else 0)
+        chosen = ranked[:n_confirm]
+        # friction is the first suspect in any servo axis, and its linearised screen is the
+        # least reliable (stiction is far from linear): fit it for real while it is missing;
+        # so is a candidate that was significant at the previous step but lost to the winner
+        # (friction and backlash often come close: both leave a direction-dependent error)
+        chosen += [kv for kv in ranked[n_confirm:]
+                   if kv[0] == "coulomb_friction" or kv[0] in runners_up]
+        for name, (ratio, _, _) in chosen:
+            if (ratio >= 1.0 and len(steps) > 1 and name != "coulomb_friction"
+                    and name not in runners_up):
+                continue
+            heldout = 0.0
+            fits: dict[int, PositionFitResult] = {}
+            for k in (0, 1):
+                train = prep.folds != k
+                if EFFECTS[name].kind == "output":
+                    starts = [_output_start(m, name, prep, b, cur.y, train)]
+                else:
+                    starts = [_variant_start(v, name, b)
+                              for v in variants[name][: _N_STARTS.get(name, 1)]]
+                res = min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
+                fits[k] = res
+                heldout += _position_sse(res.y, prep, ~train)
+            n_par = _n_params(name, fits[0].model.effects)
+            rho = heldout / max(base_heldout, 1e-300)
+            sizes = [_effect_position_size(fits[k].model, name, prep, None, fits[k].y)
+                     for k in (0, 1)]
+            size = min(sizes)
+            sc = CandidateScore(name, n_par, rho, "position", size / floor,
+                                size >= settings.min_position_share * floor,
+                                f"linearised x{ratio:.3f}")
+            scores.append(sc)
+            confirmed[name] = fits
+            log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
+                f"size {size / floor:.2f} x floor")
+        for name, (ratio, _, _) in [kv for kv in ranked if kv not in chosen]:
+            n_par = _n_params(name, m.effects + (name,))
+            scores.append(CandidateScore(name, n_par, ratio, "position (linearised)",
+                                         note="not fitted: ranked below the confirmed ones"))
+        accepted = None
+        pool = [s for s in scores if s.judged_on == "position"]
+        while True:
+            winner = _pick(pool, settings)
+            if winner is None:
+                break
+            fits = confirmed[winner.effect]
+            # refit on all samples, the loop free again, from the better fold fit
+            k_best = min(fits, key=lambda k: fits[k].cost)
+            full = _refit(fits[k_best].model, prep, b, 12)
+            size = _effect_position_size(full.model, winner.effect, prep, None, full.y)
+            if size >= settings.min_position_share * floor and full.cost <= _half_sse(
+                    cur.y, prep):
+                accepted = (winner, full)
+                break
+            winner.size_ok = False
+            winner.note += f"; vanished in the refit on all samples (size {size / floor:.2f})"
+            log(f"    {winner.effect} rejected: {winner.note}")
+            pool = [s for s in pool if s is not winner]
+        if accepted is None:
+            reason = "no candidate improves the held-out position error significantly"
+            cur.candidates = scores
+            break
+        winner, full = accepted
+        runners_up = {sc.effect for sc in scores if sc is not winner and sc.size_ok
+                      and sc.judged_on == "position"
+                      and sc.gain >= settings.required(sc.n_params)}
+        step = Step(winner.effect, full.model, full.y, _rms(prep.x - full.y),
+                    float(np.max(np.abs(prep.x - full.y))), None, scores, winner.heldout_ratio)
+        steps.append(step)
+        log(f"  + {winner.effect}: position rms {step.position_rms:.3g} m")
+    return steps, reason, floor
+
+
+def _refit(start: GreyBox, prep: Prepared, b: Bounds, max_iter: int) -> PositionFitResult:
+    """Refit every parameter of an accepted model from several starting loops.
+
+    The loop estimated before the effect was known is biased by it (a linear loop fitted to
+    a thermal drift has hardly any position gain), so besides the current loop the best of
+    the standard starting loops is refined too, and the lower error wins.
+    """
+    from fricbench.sysid.diagnose.baselines import starting_controllers
+
+    grid = [start.copy(controller=c) for c in starting_controllers(prep.ts)]
+    ys = simulate_models(grid, prep)[0]
+    sse = np.array([_position_sse(y, prep, np.ones(prep.n, dtype=bool)) for y in ys])
+    candidates = [start] + [grid[i] for i in np.argsort(sse)[:1] if np.isfinite(sse[i])]
+    best: PositionFitResult | None = None
+    # whatever the start, the integral action may not collapse (see _eval_params)
+    c0 = start.controller
+    ki_min = (c0.ki / c0.wv) / REFIT_BOX if isinstance(c0, CascadeController) else 0.0
+    for k, m in enumerate(candidates):
+        params = position_params(m, b, controller=True,
+                                 controller_box=REFIT_BOX if k == 0 else None,
+                                 ki_min_ratio=ki_min)
+        res = PositionFit(prep, params).run(m, max_iter=max_iter)
+        if best is None or res.cost < best.cost:
+            best = res
+    assert best is not None
+    return best
+
+
+def _half_sse(y: np.ndarray, prep: Prepared) -> float:
+    scale = max(prep.noise.rms, 1e-9)
+    return 0.5 * sumsq((prep.x - y) / scale)
+
+
+def _physical(q: np.ndarray, name: str, b: Bounds, pr: _Probe) -> np.ndarray:
+    """Clip a linearised start into the physical ranges."""
+    F = b.force
+    out = q.copy()
+    for i in pr.indices:
+        if i in (CL.I_FC, CL.I_FS):
+            out[i] = min(max(out[i], 0.02 * F), 1.5 * F)
+        elif i in (CL.I_DFC, CL.I_OFF, CL.I_COGA, CL.I_COGB):
+            out[i] = float(np.clip(out[i], -1.5 * F, 1.5 * F))
+        elif i == CL.I_BL:
+            out[i] = min(max(out[i], b.noise), 0.15 * b.stroke)
+        elif i in (CL.I_PDA, CL.I_PDB):
+            out[i] = float(np.clip(out[i], -0.6, 0.6))
+        elif i == CL.I_PDG:
+            out[i] = float(np.clip(out[i], -1.2 / b.stroke, 1.2 / b.stroke))
+        elif i == CL.I_THA:
+            d = max(1e-3, 0.1 * b.stroke)
+            out[i] = float(np.clip(out[i], -0.9 * d, 0.9 * d))
+        elif i == CL.I_DB:
+            out[i] = float(np.clip(out[i], -0.9 * b.damping_max, 0.9 * b.damping_max))
+    return out
+
+
+def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, *,
+                      idim: InverseDynamics | None = None, w: np.ndarray | None = None,
+                      jac: np.ndarray | None = None, settings: SearchSettings | None = None,
+                      alt_loops: tuple = (),
+                      log: Callable[[str], None] | None = None) -> SearchResult:
+    """Add effects to the linear ``model`` while they help on held-out data.
+
+    Parameters
+    ----------
+    model : GreyBox
+        The fitted linear model.
+    y : ndarray
+        Its free-run position, m.
+    prep : Prepared
+    b : Bounds
+    idim : InverseDynamics, optional
+        The effort regression (runs with an effort).
+    w : ndarray, optional
+        Injected effort of the run.
+    jac : ndarray, optional
+        Jacobian of the linear output-error fit, one row per parameter (runs without effort).
+    settings : SearchSettings, optional
+    alt_loops : tuple of CascadeController
+        Other loop estimates the first step's fits also start from (runs without effort).
+    log : callable, optional
+        Receives progress lines.
+
+    Returns
+    -------
+    SearchResult
+    """
+    settings = settings or SearchSettings()
+    log = log or (lambda _s: None)
+    t0 = time.perf_counter()
+    if idim is not None:
+        steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log)
+    else:
+        steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log, jac,
+                                                      alt_loops)
+    return SearchResult(steps, reason, floor, time.perf_counter() - t0)
+
+
+def step_parameters(step: Step, force_unit: str) -> dict[str, dict[str, float]]:
+    """Parameters of every effect of a step's model, in SI units."""
+    return {e: describe_parameters(e, step.model.plant, force_unit) for e in step.model.effects}

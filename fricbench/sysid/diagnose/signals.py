@@ -1,0 +1,215 @@
+"""Signal processing of the diagnosis: filtered derivatives, parallel decimation, the noise
+floor, held-out folds and the search for spatial periods.
+
+Derivatives follow the IDIM-LS recipe of Gautier and Janot (used for the EMPS reference
+results): positions pass a zero-phase Butterworth low-pass filter, velocity and acceleration are
+central differences of the filtered position, and every column of the regression (and the
+effort) is then decimated *in parallel* with the same anti-aliasing filter, so that the
+filtering does not bias a model that is linear in its parameters.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+__all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
+           "block_folds", "reversal_mask", "period_candidates"]
+
+
+def filtered_derivatives(x: np.ndarray, ts: float, cutoff_hz: float,
+                         order: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Zero-phase low-pass ``x`` and differentiate it twice.
+
+    Parameters
+    ----------
+    x : ndarray, shape (K,)
+        Position, m.
+    ts : float
+        Sample time, s.
+    cutoff_hz : float
+        Butterworth cut-off frequency, Hz (below the Nyquist frequency ``0.5 / ts``).
+    order : int
+        Butterworth order (applied forward and backward: twice the order in magnitude).
+
+    Returns
+    -------
+    xf, v, a : ndarray, shape (K,)
+        Filtered position (m), velocity (m/s) and acceleration (m/s^2) by central differences.
+    """
+    nyq = 0.5 / ts
+    if not 0.0 < cutoff_hz < nyq:
+        raise ValueError(f"cutoff_hz={cutoff_hz!r}: expected a value in (0, {nyq:g}) Hz")
+    b, a = signal.butter(order, cutoff_hz / nyq)
+    xf = signal.filtfilt(b, a, x, padlen=min(3 * max(len(a), len(b)), x.shape[0] - 1))
+    v = np.gradient(xf, ts)
+    acc = np.gradient(v, ts)
+    return xf, v, acc
+
+
+def decimate_columns(cols: np.ndarray, factor: int) -> np.ndarray:
+    """Low-pass (zero-phase FIR) and keep every ``factor``-th row of each column.
+
+    Parameters
+    ----------
+    cols : ndarray, shape (K,) or (K, P)
+        Columns sampled at the original rate.
+    factor : int
+        Decimation factor (1: unchanged).
+
+    Returns
+    -------
+    ndarray, shape (ceil(K / factor),) or (ceil(K / factor), P)
+    """
+    if factor <= 1:
+        return np.asarray(cols, dtype=float)
+    return signal.decimate(np.asarray(cols, dtype=float), factor, ftype="fir", axis=0)
+
+
+class NoiseFloor:
+    """Measurement noise and quantisation of a position signal.
+
+    Attributes
+    ----------
+    sigma : float
+        Standard deviation of the white part, m (from third differences).
+    quantum : float
+        Detected quantisation step, m (0 when the values are not on a grid).
+    rms : float
+        The floor a free-run prediction cannot beat: ``max(sigma, quantum / sqrt(12))``, m.
+    """
+
+    def __init__(self, sigma: float, quantum: float) -> None:
+        self.sigma = float(sigma)
+        self.quantum = float(quantum)
+        self.rms = max(self.sigma, self.quantum / np.sqrt(12.0))
+
+    def to_dict(self) -> dict[str, float]:
+        """JSON-ready form."""
+        return {"sigma_m": self.sigma, "quantum_m": self.quantum, "rms_m": self.rms}
+
+
+def _quantum(x: np.ndarray) -> float:
+    """Encoder step of ``x`` (m), or 0 when the values do not lie on a grid."""
+    d = np.abs(np.diff(x))
+    scale = max(float(np.max(np.abs(x))), 1e-12)
+    d = np.sort(d[d > 1e-9 * scale])
+    if d.size < 20:
+        return 0.0
+    # the smallest step that occurs repeatedly
+    q = 0.0
+    for cand in d[: min(d.size, 200)]:
+        if np.count_nonzero(np.abs(d[:2000] - cand) <= 0.01 * cand) >= 5:
+            q = float(cand)
+            break
+    if q <= 0.0:
+        return 0.0
+    frac = x / q - np.round(x / q)
+    frac = frac - np.median(frac)
+    frac = frac - np.round(frac)
+    return q if float(np.percentile(np.abs(frac), 99)) < 0.02 else 0.0
+
+
+def noise_floor(x: np.ndarray, x_ref: np.ndarray) -> NoiseFloor:
+    """Estimate the measurement noise and quantisation of ``x``.
+
+    The third difference of the tracking error ``x - x_ref`` removes the smooth motion; for
+    white noise its variance is ``20 sigma^2``. A robust scale (median absolute deviation)
+    ignores the short transients at starts and reversals.
+
+    Parameters
+    ----------
+    x, x_ref : ndarray, shape (K,)
+        Measured and reference position, m.
+
+    Returns
+    -------
+    NoiseFloor
+    """
+    e = np.asarray(x, dtype=float) - np.asarray(x_ref, dtype=float)
+    d3 = np.diff(e, 3)
+    mad = float(np.median(np.abs(d3 - np.median(d3))))
+    sigma = 1.4826 * mad / np.sqrt(20.0)
+    return NoiseFloor(sigma, _quantum(np.asarray(x, dtype=float)))
+
+
+def block_folds(n: int, n_blocks: int = 20, n_folds: int = 2) -> np.ndarray:
+    """Fold label of each sample: contiguous time blocks assigned to folds in turn.
+
+    Contiguous blocks keep the autocorrelated residual of one block out of the other fold;
+    interleaving them (block ``i`` goes to fold ``i % n_folds``) lets every fold see every part
+    of the run (both directions of motion, all speeds).
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    n_blocks : int
+        Number of blocks.
+    n_folds : int
+        Number of folds.
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+    """
+    n_blocks = max(n_folds, min(n_blocks, n // 50))
+    block = (np.arange(n) * n_blocks) // n
+    return (block % n_folds).astype(np.int64)
+
+
+def reversal_mask(v: np.ndarray, ts: float, window: float = 0.1) -> np.ndarray:
+    """Samples within ``window`` seconds after a sign change of ``v`` (m/s)."""
+    s = np.sign(v)
+    nz = np.flatnonzero(s != 0)
+    mask = np.zeros(v.shape[0], dtype=bool)
+    if nz.size < 2:
+        return mask
+    change = nz[1:][s[nz[1:]] != s[nz[:-1]]]
+    w = max(1, int(round(window / ts)))
+    for i in change:
+        mask[i:i + w] = True
+    return mask
+
+
+def period_candidates(x: np.ndarray, r: np.ndarray, moving: np.ndarray, p_min: float,
+                      p_max: float, n_best: int = 3) -> list[float]:
+    """Spatial periods (m) at which the residual ``r`` varies with the position ``x``.
+
+    The residual of the moving samples is averaged in position bins a quarter of ``p_min``
+    wide; the periodogram of that position series (zero-padded FFT) gives the periods of the
+    ``n_best`` highest separated peaks between ``p_min`` and ``p_max``. The fits then refine
+    them continuously.
+    """
+    xs, rs = x[moving], r[moving]
+    if xs.size < 50 or p_max <= p_min:
+        return []
+    width = 0.25 * p_min
+    lo = float(np.min(xs))
+    n_bins = int(np.ceil((float(np.max(xs)) - lo) / width)) + 1
+    if n_bins < 8:
+        return []
+    idx = np.minimum(((xs - lo) / width).astype(np.int64), n_bins - 1)
+    sums = np.bincount(idx, weights=rs - rs.mean(), minlength=n_bins)
+    counts = np.bincount(idx, minlength=n_bins)
+    series = np.where(counts > 0, sums / np.maximum(counts, 1), 0.0)
+    n_fft = 1 << int(np.ceil(np.log2(8 * n_bins)))
+    power = np.abs(np.fft.rfft(series, n_fft)) ** 2
+    freqs = np.fft.rfftfreq(n_fft, width)  # cycles per metre
+    band = (freqs >= 1.0 / p_max) & (freqs <= 1.0 / p_min)
+    if not np.any(band):
+        return []
+    cand = np.flatnonzero(band)
+    # local maxima only
+    peaks = [i for i in cand if 0 < i < power.size - 1 and power[i] >= power[i - 1]
+             and power[i] >= power[i + 1]]
+    peaks.sort(key=lambda i: -power[i])
+    picked: list[float] = []
+    df = 2.0 / (n_bins * width)
+    for i in peaks:
+        f = freqs[i]
+        if all(abs(f - 1.0 / p) > df for p in picked):
+            picked.append(1.0 / f)
+        if len(picked) >= n_best:
+            break
+    return picked

@@ -1,0 +1,99 @@
+"""``fricbench diagnose`` on the command line: exit codes, messages, JSON keys, atomic report."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+
+import numpy as np
+import pytest
+
+from fricbench.axis import Axis, simulate
+from fricbench.sysid.diagnose.command import EXIT_BAD_INPUT, EXIT_OK, main
+from fricbench.trajectories.base import Reference
+
+
+def _reference(duration: float = 5.0, ts: float = 1e-3) -> Reference:
+    t = np.arange(int(duration / ts)) * ts
+    s = np.clip((t - 0.2) / 0.5, 0.0, 1.0)
+    x = (0.006 * np.sin(2 * np.pi * 0.5 * t) + 0.001 * np.sin(2 * np.pi * 2.1 * t)) * (
+        s**3 * (10.0 - 15.0 * s + 6.0 * s**2))
+    return Reference.from_positions(t, x)
+
+
+@pytest.fixture(scope="module")
+def run_csv(tmp_path_factory) -> str:
+    """A simulated run with friction, noise and the effort, in the default column names."""
+    axis = Axis().with_effects(noise_std=5e-8, quantization=2e-8)
+    res = simulate(axis, _reference(), seed=3)
+    path = tmp_path_factory.mktemp("runs") / "run.csv"
+    rows = "\n".join(f"{a:.6f},{b:.12g},{c:.12g},{d:.9g}"
+                     for a, b, c, d in zip(res.t, res.x_ref, res.x, res.u, strict=True))
+    path.write_text("t,x_ref,x,u\n" + rows + "\n")
+    return str(path)
+
+
+def _sha(path: str) -> str:
+    with open(path, "rb") as fh:
+        return hashlib.sha256(fh.read()).hexdigest()
+
+
+def test_json_keys_and_atomic_report(run_csv, tmp_path, capsys):
+    before = _sha(run_csv)
+    out = tmp_path / "out.json"
+    report_dir = tmp_path / "report"
+    code = main([run_csv, "--json", str(out), "--report", str(report_dir), "--quiet"])
+    assert code == EXIT_OK
+    data = json.loads(out.read_text())
+    assert {"effects", "position", "effort", "steps"} <= set(data)
+    assert set(data["position"]) == {"rms_before", "rms_after", "max_before", "max_after"}
+    assert set(data["effort"]) >= {"relerr_before_pct", "relerr_after_pct"}
+    assert "coulomb_friction" in data["effects"]
+    assert data["position"]["rms_after"] < data["position"]["rms_before"]
+    for step in data["steps"]:
+        assert {"effect", "parameters", "metrics"} <= set(step)
+    names = sorted(os.listdir(report_dir))
+    assert "report.json" in names and "residual_reversals.png" in names
+    assert not [n for n in names if n.endswith(".tmp")]  # no leftovers of atomic writes
+    assert _sha(run_csv) == before  # the input is never modified
+    printed = capsys.readouterr().out
+    assert "effects found" in printed and "elapsed" in printed
+
+
+def test_validation_and_position_only(run_csv, tmp_path):
+    out = tmp_path / "out.json"
+    code = main([run_csv, "--validate", run_csv, "--no-effort", "--json", str(out), "--quiet",
+                 "--max-effects", "1"])
+    assert code == EXIT_OK
+    data = json.loads(out.read_text())
+    assert "effort" not in data and len(data["effects"]) <= 1
+    assert set(data["validation"]["position"]) == {"rms_before", "rms_after", "max_before",
+                                                   "max_after"}
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (b"", "empty"),
+    (b"\x00\x01\x02binary\xff", "binary"),
+    (b"t,q,r\n0,1,2\n", "missing column"),
+    (b"t,x_ref,x\n" + b"".join(f"{i * 1e-3},{i},{i}\n".encode() for i in range(50)),
+     "too short"),
+])
+def test_bad_input_exits_two_without_traceback(tmp_path, capsys, content, message):
+    path = tmp_path / "bad.csv"
+    path.write_bytes(content)
+    code = main([str(path), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == EXIT_BAD_INPUT
+    assert message in err and "Traceback" not in err
+
+
+def test_named_effort_column_must_exist(run_csv, capsys):
+    code = main([run_csv, "--effort", "current_A", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == EXIT_BAD_INPUT and "'current_A'" in err and "'u'" in err
+
+
+def test_missing_output_directory(run_csv, tmp_path, capsys):
+    code = main([run_csv, "--json", str(tmp_path / "nope" / "out.json"), "--quiet"])
+    assert code == EXIT_BAD_INPUT and "does not exist" in capsys.readouterr().err

@@ -1,0 +1,153 @@
+"""Building blocks of the diagnosis: the grey-box simulator against the axis kernel (oracle),
+the controller and inverse-dynamics fits, period search, noise floor, least squares."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fricbench.axis import Axis, simulate
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.controllers import CascadeController, LoopInputs, fit_arx_controller
+from fricbench.sysid.diagnose.effects import EFFECT_NAMES, describe_parameters
+from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, solve_ls
+from fricbench.sysid.diagnose.models import GreyBox, InverseDynamics, simulate_position
+from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.diagnose.signals import block_folds, noise_floor, period_candidates
+from fricbench.sysid.io import validate_arrays
+from fricbench.trajectories.base import Reference
+
+
+def _reference(duration: float = 6.0, ts: float = 1e-3) -> Reference:
+    t = np.arange(int(duration / ts)) * ts
+    # two sines and a slow sweep: reversals at many positions and speeds
+    x = 0.008 * np.sin(2 * np.pi * 0.4 * t) + 0.002 * np.sin(2 * np.pi * 1.7 * t + 0.3)
+    # start at rest: 0.2 s still, then a smooth (C2) 0.5 s fade-in
+    s = np.clip((t - 0.2) / 0.5, 0.0, 1.0)
+    x *= s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+    return Reference.from_positions(t, x)
+
+
+def _grey_box_of(axis: Axis) -> GreyBox:
+    """The exact grey-box counterpart of a fricbench axis (mass normalised to 1)."""
+    c, m, e, f = axis.controller, axis.mechanics, axis.effects, axis.friction
+    ctrl = CascadeController(wv=c.kv * c.kt / m.mass, kp=c.kp, ki=1.0 / c.ti, kvff=c.kvff,
+                             kaff=c.kaff)
+    p = CL.default_plant(1.0, m.damping / m.mass)
+    p[CL.I_FC] = f.fc / m.mass
+    p[CL.I_FS] = (f.fs - f.fc) / m.mass
+    p[CL.I_VS] = f.vs
+    p[CL.I_COGA] = e.cogging_amplitude * math.cos(e.cogging_phase) / m.mass
+    p[CL.I_COGB] = e.cogging_amplitude * math.sin(e.cogging_phase) / m.mass
+    p[CL.I_COGP] = e.cogging_period
+    p[CL.I_PDG] = e.friction_gradient
+    p[CL.I_PDA] = e.friction_variation * math.cos(e.friction_variation_phase)
+    p[CL.I_PDB] = e.friction_variation * math.sin(e.friction_variation_phase)
+    p[CL.I_PDP] = e.friction_variation_period
+    p[CL.I_BL] = e.backlash
+    p[CL.I_THA] = e.thermal_drift
+    p[CL.I_THT] = e.thermal_time_constant
+    return GreyBox(ctrl, p, EFFECT_NAMES)
+
+
+def test_simulator_matches_the_axis_kernel_with_every_effect():
+    """Oracle: with the axis's own parameters the grey box reproduces the project kernel."""
+    ref = _reference()
+    axis = Axis().with_effects(cogging_amplitude=80.0, cogging_period=4e-3, cogging_phase=0.7,
+                               friction_variation=0.3, friction_variation_period=0.02,
+                               friction_variation_phase=1.1, friction_gradient=0.5,
+                               backlash=4e-6, thermal_drift=5e-6, thermal_time_constant=3.0)
+    res = simulate(axis, ref)
+    run = validate_arrays(res.t, res.x_ref, res.x)
+    prep = prepare(run, n_sub=axis.controller.n_substeps)
+    prep.inputs = LoopInputs(prep.inputs.t, prep.inputs.ts, ref.x, ref.v, ref.a,
+                             float(ref.x[0]), float(ref.v[0]), 0.0)
+    y, _ = simulate_position(_grey_box_of(axis), prep)
+    # equal up to the rounding of a stick/slip decision now and then (a few nm)
+    assert np.max(np.abs(y - res.x)) < 2e-8
+    # and the effects matter: without them the prediction is far off
+    y0, _ = simulate_position(_grey_box_of(axis.with_effects(
+        cogging_amplitude=0.0, backlash=0.0, thermal_drift=0.0, friction_variation=0.0)), prep)
+    assert np.max(np.abs(y0 - res.x)) > 1e-6
+
+
+def test_arx_controller_recovers_the_cascade_law():
+    ref = _reference()
+    res = simulate(Axis(), ref)
+    folds = block_folds(ref.n_samples)
+    ctrl = fit_arx_controller(ref.x, ref.v, res.x, res.u, 1e-3, folds)
+    assert ctrl.a.shape == (1,) and ctrl.a[0] == pytest.approx(1.0, abs=1e-6)  # integral
+    u_hat = ctrl.predict(ref.x, ref.v, res.x, res.u, 1e-3)
+    # the ends differ: one-sided reference differences there
+    err = (u_hat - res.u)[5:-5]
+    assert np.sqrt(np.mean(err**2)) < 1e-5 * np.sqrt(np.mean(res.u**2))
+
+
+def test_inverse_dynamics_recovers_mass_damping_and_coulomb():
+    ref = _reference(duration=10.0)
+    axis = Axis().with_friction("coulomb", fc=250.0).with_mechanics(mass=300.0, damping=150.0)
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
+    idim = InverseDynamics(prep, res.u)
+    p = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    assert p[CL.I_M] == pytest.approx(300.0, rel=0.05)
+    assert p[CL.I_FC] == pytest.approx(250.0, rel=0.03)
+    assert 75.0 < p[CL.I_B] < 300.0  # weakly excited by this reference
+
+
+def test_inverse_dynamics_finds_a_cogging_period_continuously():
+    ref = _reference(duration=10.0)
+    axis = Axis().with_effects(cogging_amplitude=150.0, cogging_period=3.37e-3,
+                               cogging_phase=0.4)
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
+    idim = InverseDynamics(prep, res.u)
+    base = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    p = idim.fit(("coulomb_friction", "cogging"), base, new="cogging")
+    par = describe_parameters("cogging", p, "N")
+    # not a grid value: the period is refined continuously
+    assert par["period_m"] == pytest.approx(3.37e-3, rel=2e-3)
+    assert par["amplitude_N"] == pytest.approx(150.0, rel=0.15)
+
+
+def test_period_candidates_on_a_synthetic_residual():
+    rng = np.random.default_rng(0)
+    x = np.cumsum(rng.uniform(-1e-5, 1e-5, 20000)) + np.linspace(0, 0.05, 20000)
+    r = np.sin(2 * np.pi * x / 2.5e-3) + 0.5 * rng.standard_normal(x.size)
+    periods = period_candidates(x, r, np.ones(x.size, dtype=bool), 1e-3, 0.01)
+    assert periods and periods[0] == pytest.approx(2.5e-3, rel=0.02)
+
+
+def test_noise_floor_detects_noise_and_encoder_step():
+    rng = np.random.default_rng(1)
+    t = np.arange(20000) * 1e-3
+    x_ref = 0.01 * np.sin(2 * np.pi * 0.3 * t)
+    noisy = noise_floor(x_ref + 2e-7 * rng.standard_normal(t.size), x_ref)
+    assert noisy.sigma == pytest.approx(2e-7, rel=0.1) and noisy.quantum == 0.0
+    q = 5e-8
+    stepped = noise_floor(q * np.round(x_ref / q), x_ref)
+    assert stepped.quantum == pytest.approx(q, rel=1e-6)
+    assert q / math.sqrt(12.0) <= stepped.rms < 2 * q / math.sqrt(12.0)
+
+
+def test_solve_ls_with_sign_constraints():
+    rng = np.random.default_rng(2)
+    X = rng.standard_normal((500, 3))
+    y = X @ np.array([1.0, -0.5, 2.0])
+    assert solve_ls(X, y) == pytest.approx([1.0, -0.5, 2.0])
+    c = solve_ls(X, y, nonneg=np.array([False, True, False]))
+    assert c[1] == 0.0
+
+
+def test_levenberg_marquardt_respects_bounds():
+    target = np.array([0.3, -2.0])
+
+    def residuals(thetas: np.ndarray) -> np.ndarray:
+        return np.array([np.r_[th - target, 0.1 * th[0] * th[1]] for th in thetas])
+
+    sol = levenberg_marquardt(residuals, np.array([1.0, 1.0]), np.array([0.0, -1.0]),
+                              np.array([2.0, 2.0]), np.array([1e-6, 1e-6]), max_iter=50)
+    assert sol.theta[1] == pytest.approx(-1.0)  # held at the bound
+    assert 0.0 <= sol.theta[0] <= 2.0

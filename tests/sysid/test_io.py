@@ -1,0 +1,180 @@
+"""Loading and validating run files: every bad input gives a clear DataError."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+
+import numpy as np
+import pytest
+
+from fricbench.sysid.io import MIN_SAMPLES, DataError, RunData, load_run, validate_arrays
+
+
+def _write(path, header: str, rows: list[str]) -> str:
+    text = header + "\n" + "\n".join(rows) + "\n"
+    path.write_text(text)
+    return str(path)
+
+
+def _good_rows(n: int = 400, ts: float = 1e-3, scale: float = 1.0) -> list[str]:
+    t = np.arange(n) * ts
+    xr = scale * 0.01 * np.sin(2 * np.pi * 1.0 * t)
+    x = xr - scale * 1e-6
+    u = 10.0 * np.cos(2 * np.pi * t)
+    return [f"{a:.9f},{b:.12g},{c:.12g},{d:.6g}" for a, b, c, d in zip(t, xr, x, u, strict=True)]
+
+
+def test_good_file_loads_with_effort(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows())
+    run = load_run(path)
+    assert isinstance(run, RunData)
+    assert run.n_samples == 400 and run.has_effort
+    assert run.ts == pytest.approx(1e-3)
+    assert run.n_reversals >= 1 and not run.warnings
+
+
+def test_effort_is_optional_unless_named(tmp_path):
+    rows = [",".join(r.split(",")[:3]) for r in _good_rows()]
+    path = _write(tmp_path / "run.csv", "t,x_ref,x", rows)
+    assert load_run(path).u is None
+    with pytest.raises(DataError, match="missing column.*'force'.*has 't', 'x_ref', 'x'"):
+        load_run(path, effort="force", effort_required=True)
+
+
+def test_renamed_columns_semicolon_and_comments(tmp_path):
+    rows = [r.replace(",", ";") for r in _good_rows()]
+    path = _write(tmp_path / "run.csv", "# a comment\ntime;ref;pos;F", rows)
+    run = load_run(path, time="time", reference="ref", position="pos", effort="F")
+    assert run.has_effort and run.columns["x_ref"] == "ref"
+
+
+def test_missing_column_lists_the_columns_found(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,q_ref,q,u", _good_rows())
+    with pytest.raises(DataError) as err:
+        load_run(path)
+    msg = str(err.value)
+    assert "'x_ref'" in msg and "'x'" in msg and "'q_ref'" in msg and "--reference" in msg
+
+
+def test_non_numeric_cell_names_line_and_column(tmp_path):
+    rows = _good_rows()
+    fields = rows[10].split(",")
+    fields[2] = "abc"
+    rows[10] = ",".join(fields)
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", rows)
+    with pytest.raises(DataError, match=r"line 12, column 'x': 'abc' is not a number"):
+        load_run(path)
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf"])
+def test_nan_and_inf_are_rejected(tmp_path, bad):
+    rows = _good_rows()
+    fields = rows[5].split(",")
+    fields[1] = bad
+    rows[5] = ",".join(fields)
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", rows)
+    with pytest.raises(DataError, match=r"line 7, column 'x_ref'.*not finite"):
+        load_run(path)
+
+
+def test_time_not_increasing(tmp_path):
+    rows = _good_rows()
+    rows[20], rows[21] = rows[21], rows[20]
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", rows)
+    with pytest.raises(DataError, match="does not increase"):
+        load_run(path)
+
+
+def test_irregular_sampling_beyond_one_percent(tmp_path):
+    rows = _good_rows()
+    del rows[100]  # one step of 2 ms in a 1 ms run
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", rows)
+    with pytest.raises(DataError, match="irregular sampling"):
+        load_run(path)
+
+
+def test_small_jitter_is_accepted():
+    n = 400
+    t = np.arange(n) * 1e-3 + np.random.default_rng(0).uniform(-3e-8, 3e-8, n)
+    xr = 0.01 * np.sin(2 * np.pi * t)
+    run = validate_arrays(t, xr, xr)
+    assert run.ts == pytest.approx(1e-3, rel=1e-4)
+
+
+def test_too_short(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows(MIN_SAMPLES - 1))
+    with pytest.raises(DataError, match="too short"):
+        load_run(path)
+
+
+def test_no_motion_says_no_analysis_is_possible():
+    t = np.arange(500) * 1e-3
+    with pytest.raises(DataError, match="without motion.*no analysis"):
+        validate_arrays(t, np.zeros(500), np.zeros(500))
+
+
+def test_no_reversal_is_a_warning_naming_the_skipped_analyses():
+    t = np.arange(500) * 1e-3
+    xr = 0.01 * t
+    run = validate_arrays(t, xr, xr - 1e-7)
+    assert run.n_reversals == 0
+    assert any("never reverses" in w and "backlash" in w for w in run.warnings)
+
+
+def test_millimetres_are_suspected(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows(scale=1000.0))
+    run = load_run(path)
+    assert any("millimetres" in w for w in run.warnings)
+
+
+def test_empty_file(tmp_path):
+    path = tmp_path / "empty.csv"
+    path.write_bytes(b"")
+    with pytest.raises(DataError, match="empty"):
+        load_run(str(path))
+
+
+def test_header_only(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", [])
+    with pytest.raises(DataError, match="no data rows"):
+        load_run(path)
+
+
+def test_binary_file(tmp_path):
+    path = tmp_path / "data.mat"
+    path.write_bytes(b"MATLAB 5.0 MAT-file\x00\x01\x02\xff\xfe" * 50)
+    with pytest.raises(DataError, match="binary"):
+        load_run(str(path))
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(DataError, match="no such file"):
+        load_run(str(tmp_path / "nope.csv"))
+
+
+def test_ragged_row(tmp_path):
+    rows = _good_rows()
+    rows[3] = rows[3] + ",5"
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", rows)
+    with pytest.raises(DataError, match="line 5 has 5 fields, the header has 4"):
+        load_run(path)
+
+
+def test_the_input_file_is_never_modified(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows())
+    before = hashlib.sha256(open(path, "rb").read()).hexdigest()
+    mtime = os.path.getmtime(path)
+    load_run(path)
+    assert hashlib.sha256(open(path, "rb").read()).hexdigest() == before
+    assert os.path.getmtime(path) == mtime
+
+
+def test_emps_files_load_with_their_names():
+    root = "/work/shared/data/emps"
+    if not os.path.isdir(root):
+        pytest.fail(f"{root} is missing: the EMPS data are part of the shared data set")
+    run = load_run(os.path.join(root, "emps_train.csv"), time="t_s", reference="q_ref_m",
+                   position="q_m", effort="force_N", effort_required=True)
+    assert run.n_samples == 24841 and run.n_reversals == 7 and not run.warnings
+    assert run.ts == pytest.approx(1e-3, rel=1e-4)
