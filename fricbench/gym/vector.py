@@ -122,34 +122,38 @@ class ServoAxisVectorEnv(VectorEnv):
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                                  dict[str, Any]]:
         a = check_action(actions, (self.num_envs, 1))[:, 0]
-        if self._autoreset.any():
+        pending = self._autoreset.any()
+        if pending:
             self._reset_rows(self._autoreset)
-        live = ~self._autoreset
+            live = ~self._autoreset
+            act = np.where(live, a, 0.0)
+        else:
+            act = a
         rid, k = self._ref_id, self._k
         self._xr[:, 0] = self._X[rid, k]
         self._vr[:, 0] = self._V[rid, k]
         self._ar[:, 0] = self._A[rid, k]
-        act = np.where(live, a, 0.0)
-        if self.task.action == "force":
-            self._u_force[:, 0] = act * self.task.action_scale
-        else:
-            self._u_off[:, 0] = act * self.task.action_scale
+        target = self._u_force if self.task.action == "force" else self._u_off
+        np.multiply(act, self.task.action_scale, out=target[:, 0])
         if self.axis.needs_noise:
             self._noise[:, 0] = self._np_random.standard_normal(self.num_envs)
-        # rows that were just reset do not advance: their observation is the reset one
-        if live.all():
+        if pending:
+            # rows that were just reset do not advance: their observation is the reset one
+            self._step_live(live)
+            self._k = np.where(live, k + 1, k)
+        else:
             self._batch.run(self._xr, self._vr, self._ar, self._u_force, self._u_off,
                             self._noise, out=self._out)
-        else:
-            self._step_live(live)
-        self._k = np.where(live, k + 1, k)
-        self._prev_action = np.where(live, act, 0.0)
+            self._k = k + 1
+        self._prev_action = act
         obs = self._observation()
         err = obs[:, 0].astype(np.float64) * self.task.observation.error_scale
         rewards = -(err / self.task.reward.error_scale) ** 2 \
             - self.task.reward.action_weight * act**2
-        rewards = np.where(live, rewards, 0.0)
-        truncated = live & (self._k >= self._len[rid] - 1)
+        truncated = self._k >= self._len[rid] - 1
+        if pending:
+            rewards[~live] = 0.0
+            truncated &= live
         terminated = np.zeros(self.num_envs, dtype=bool)
         self._autoreset = truncated.copy()
         return obs, rewards, terminated, truncated, {}
