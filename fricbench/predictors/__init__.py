@@ -14,7 +14,6 @@ Registered ids:
                   disturbance path (uses the true loop)
 ``tf+lstm-phys``  TF + LSTM with physical stick-slip features (direction, time and
                   displacement since the turning point, ``a0``, time to the next one)
-``tf+gru-phys``   the same features with a GRU cell
 ================  =====================================================================
 """
 
@@ -46,9 +45,6 @@ predictor_registry.register("tf+stribeck", "fricbench.predictors.stribeck:TFStri
                                         "loop's disturbance path")
 predictor_registry.register("tf+lstm-phys", _LSTM, kwargs={"features": "physical"},
                             description="TF + LSTM on physical stick-slip features")
-predictor_registry.register("tf+gru-phys", _LSTM, kwargs={"features": "physical",
-                                                          "cell": "gru"},
-                            description="TF + GRU on physical stick-slip features")
 
 
 def make_predictor(id: str, **params: Any) -> Predictor:

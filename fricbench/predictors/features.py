@@ -12,8 +12,9 @@ Two feature sets:
     ``|v| < v_break`` that a linear scaling squeezes into a few hundredths.
 ``"physical"`` (improved predictors)
     The ``"va"`` columns plus what a stick-slip cycle depends on: the direction of the last
-    motion, the time and the reference displacement since the last turning point (start or
-    reversal), the reference acceleration at that turning point (the paper's ``a0``), the time
+    motion, whether the last turning point (start or reversal) kept or reversed the direction
+    (or was the first start of the run), the time and the reference displacement since it, the
+    reference acceleration at that turning point (the paper's ``a0``), the time
     since the reference was last at rest, and the time to the next turning point or stop (the
     reference is known in advance, so this look-ahead is available to a feedforward).
 """
@@ -30,8 +31,8 @@ FEATURE_SETS = ("va", "physical")
 
 _NAMES = {
     "va": ("v", "a", "tanh_v_vbreak"),
-    "physical": ("v", "a", "tanh_v_vbreak", "direction", "time_since_turn", "disp_since_turn",
-                 "a_at_turn", "time_since_rest", "time_to_next"),
+    "physical": ("v", "a", "tanh_v_vbreak", "direction", "turn_kind", "time_since_turn",
+                 "disp_since_turn", "a_at_turn", "time_since_rest", "time_to_next"),
 }
 
 _V_TOL = 1e-6  # m/s: below this the reference is at rest (fricbench.sysid.find_events)
@@ -95,11 +96,16 @@ def reference_features(x_ref: np.ndarray, ts: float, feature_set: str, v_break: 
         time_since_turn = np.where(seen, (k - last_turn) * ts, horizon)
         disp = np.where(seen, np.abs(x_ref - x_ref[j]), disp_max)
         a_turn = np.where(seen, a[j] * direction, 0.0)
+        # +1: the motion resumed in the direction it had before the last turning point (a start
+        # after a stop), -1: it reversed, 0: the first motion of the run
+        before = np.where(j > 0, prev_dir[j], 0.0)
+        turn_kind = np.where(seen, before * direction, 0.0)
         last_rest = _last_true(~moving)
         time_since_rest = np.where(last_rest >= 0, (k - last_rest) * ts, horizon)
         nxt = _next_true(turn | ~moving)
         time_to_next = np.where(nxt < v.shape[0], (nxt - k) * ts, horizon)
-        cols += [direction, np.minimum(time_since_turn, horizon), np.minimum(disp, disp_max),
+        cols += [direction, turn_kind, np.minimum(time_since_turn, horizon),
+                 np.minimum(disp, disp_max),
                  a_turn, np.minimum(time_since_rest, horizon), np.minimum(time_to_next, horizon)]
     out = np.column_stack(cols)
     if out.shape[1] != len(names):  # pragma: no cover - guards the table above

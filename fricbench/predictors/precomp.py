@@ -5,7 +5,7 @@ refs. [3] and [26]), where ``e_pred`` is the tracking error the predictor expect
 the offset becomes the fixed point of::
 
     u_0 = 0
-    u_{i+1} = u_i + (x_r - predict(x_r + u_i))       # i = 0 gives u_1 = e_pred
+    u_{i+1} = u_i + gain (x_r - predict(x_r + u_i))  # i = 0, gain 1 gives u_1 = e_pred
 
 i.e. the command whose *predicted* response is the nominal reference. One iteration is the
 paper's one-shot pre-compensation.
@@ -32,7 +32,7 @@ __all__ = ["precompensation_offset", "precompensated_reference"]
 
 
 def precompensation_offset(predictor: Predictor, reference: Reference, iterations: int = 1, *,
-                           gain: float = 1.0) -> np.ndarray:
+                           gain: float = 1.0, advance: int = 0) -> np.ndarray:
     """Reference offset that pre-compensates the predicted tracking error, m, shape (K,).
 
     Parameters
@@ -45,6 +45,10 @@ def precompensation_offset(predictor: Predictor, reference: Reference, iteration
         1: one-shot ``x_r + e_pred``; more: fixed-point iterations (module docstring).
     gain : float, optional
         Step of each iteration (``(0, 1]``; below 1 damps an oscillating iteration).
+    advance : int, optional
+        Samples by which each correction is applied earlier (phase lead, as in lead-ILC):
+        the loop needs time to build force, so a correction commanded a few samples ahead
+        acts when the error happens. 0 (default) is the paper's ``x_r + e_pred``.
 
     Returns
     -------
@@ -55,14 +59,19 @@ def precompensation_offset(predictor: Predictor, reference: Reference, iteration
         raise TypeError(f"predictor={predictor!r}: expected a fitted Predictor")
     iterations = check_int("iterations", iterations, 1, 1000)
     gain = check_range("gain", gain, 1e-6, 1.0)
+    advance = check_int("advance", advance, 0, 1000)
     if not isinstance(reference, Reference):
         raise TypeError(f"reference={type(reference).__name__}: expected a Reference")
     x_r = np.asarray(reference.x, dtype=float)
     offset = np.zeros_like(x_r)
     for _ in range(iterations):
         commanded = reference if not offset.any() else precompensated_reference(reference, offset)
-        # u <- u + (x_r - x_pred(x_r + u))
-        offset = offset + gain * (x_r - predictor.predict(commanded))
+        # u <- u + gain (x_r - x_pred(x_r + u)), shifted `advance` samples earlier
+        step = x_r - predictor.predict(commanded)
+        if advance:
+            step = np.concatenate([step[advance:], np.full(min(advance, step.shape[0]),
+                                                           step[-1])])[: step.shape[0]]
+        offset = offset + gain * step
     return offset
 
 
