@@ -326,9 +326,9 @@ class Predictor(ABC):
             raise PredictorFileError(f"{path}: no such file") from None
         except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise PredictorFileError(f"{path}: not a fricbench predictor file ({exc})") from None
-        if not isinstance(config, dict) or config.get("format") != _FORMAT_NAME:
-            raise PredictorFileError(f"{path}: not a fricbench predictor file (format "
-                                     f"{config.get('format') if isinstance(config, dict) else None!r})")
+        fmt = config.get("format") if isinstance(config, dict) else None
+        if not isinstance(config, dict) or fmt != _FORMAT_NAME:
+            raise PredictorFileError(f"{path}: not a fricbench predictor file (format {fmt!r})")
         if config.get("version") != FORMAT_VERSION:
             raise PredictorFileError(f"{path}: format version {config.get('version')!r}, this "
                                      f"fricbench reads version {FORMAT_VERSION}")
@@ -372,7 +372,7 @@ class Predictor(ABC):
             raise PredictorFileError(f"{path}: weights do not fit {klass.__name__} ({exc})") \
                 from None
         obj.ts_ = ts
-        return obj
+        return obj  # type: ignore[return-value]  # klass is cls or a subclass (checked above)
 
 
 def _to_json(params: dict[str, Any]) -> dict[str, Any]:

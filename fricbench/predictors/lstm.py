@@ -118,7 +118,9 @@ class TFLSTMPredictor(Predictor):
     seed : int, optional
         Seed of the weight initialisation and the batch order.
     n_threads : int, optional
-        Torch threads during fit and predict (fixed for determinism).
+        Torch threads during fit and predict (fixed for determinism). One by default: the
+        matrices of a small LSTM are too small to gain from more, and on a busy machine extra
+        threads spin against each other (measured: 40x slower at two threads under load).
     n_poles, n_zeros, dc_gain : optional
         Transfer-function structure (:class:`fricbench.predictors.tf.TFPredictor`).
     window_pre, window_post : float, optional
@@ -155,7 +157,7 @@ class TFLSTMPredictor(Predictor):
         patience: int = 40,
         validation_fraction: float = 0.15,
         seed: int = 0,
-        n_threads: int = 2,
+        n_threads: int = 1,
         n_poles: int = 3,
         n_zeros: int = 2,
         dc_gain: float | None = None,

@@ -1,4 +1,4 @@
-"""``tf+stribeck``: a physics baseline, fitted Stribeck friction through the loop's disturbance path.
+"""``tf+stribeck``: physics baseline, a fitted Stribeck friction through the disturbance path.
 
     x_pred = G(s) x_ref + H_d(z) [ -F_f(v_ref) ]
     F_f(v) = [ f_c + (f_s - f_c) exp(-(v / v_s)^2) ] sgn(v)          (paper, eq. 8)
