@@ -47,8 +47,8 @@ def _cmd_list(args: argparse.Namespace) -> int:
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from fricbench._atomic import atomic_write
     from fricbench.axis import simulate
-    from fricbench.bench.leaderboard import atomic_write
     from fricbench.gym import get_spec
     from fricbench.trajectories import make_trajectory
 
@@ -83,7 +83,7 @@ def _plot_run(res: object, title: str, path: str) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from fricbench.bench.leaderboard import atomic_write
+    from fricbench._atomic import atomic_write
 
     fig = Figure(figsize=(9, 6), dpi=100)
     FigureCanvasAgg(fig)
@@ -109,7 +109,7 @@ def _plot_run(res: object, title: str, path: str) -> None:
 
 
 def _cmd_perf(args: argparse.Namespace) -> int:
-    from fricbench.bench.leaderboard import atomic_write
+    from fricbench._atomic import atomic_write
     from fricbench.bench.perf import format_report, measure_performance
 
     result = measure_performance(quick=args.quick)

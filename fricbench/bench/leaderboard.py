@@ -9,20 +9,18 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import tempfile
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from fricbench._atomic import atomic_write
 from fricbench.bench.runner import EpisodeRecord
 
 __all__ = [
     "CSV_COLUMNS",
     "TARGETS",
-    "atomic_write",
     "env_file_stem",
     "summarise",
     "write_leaderboards",
@@ -36,22 +34,6 @@ CSV_COLUMNS = ("env", "compensator", "trajectory", "seed", "status", "max_um", "
 TARGETS = {"ilc": 90.0, "kalman": 50.0, "rl-sac": 30.0}
 TARGET_BEST = 80.0
 TARGET_TRAJECTORIES = ("m_serial", "curve")
-
-
-def atomic_write(path: str | Path, text: str | bytes) -> None:
-    """Write ``text`` to ``path`` through a temp file in the same folder and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    mode = "wb" if isinstance(text, bytes) else "w"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def env_file_stem(env_id: str) -> str:

@@ -28,7 +28,6 @@ import io
 import json
 import math
 import os
-import tempfile
 import zipfile
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
@@ -39,12 +38,13 @@ from typing import Any, ClassVar, TypeVar
 import numpy as np
 import torch
 
+from fricbench._atomic import atomic_write
 from fricbench.registry import load_entry_point
 from fricbench.sysid.friction_error import find_events
 from fricbench.trajectories.base import Reference
 
 __all__ = ["Run", "as_runs", "Predictor", "NotFittedError", "PredictorFileError",
-           "FORMAT_VERSION", "atomic_write_bytes"]
+           "FORMAT_VERSION"]
 
 FORMAT_VERSION = 1
 _FORMAT_NAME = "fricbench.predictor"
@@ -158,23 +158,6 @@ def check_direction_changes(runs: Sequence[Run], ts: float) -> None:
     raise ValueError("the runs have no reversal of the direction of motion: friction "
                      "predictors learn from reversals (and starts), fit on a run that goes "
                      "both ways")
-
-
-def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and ``os.replace`` (atomic)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 class Predictor(ABC):
@@ -302,7 +285,7 @@ class Predictor(ABC):
         with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as zf:
             zf.writestr("config.json", json.dumps(config, indent=2))
             zf.writestr("weights.pt", buf.getvalue())
-        atomic_write_bytes(path, out.getvalue())
+        atomic_write(path, out.getvalue())
 
     @classmethod
     def load(cls: type[P], path: str | os.PathLike[str]) -> P:

@@ -31,10 +31,11 @@ from typing import Any
 
 import numpy as np
 
+from fricbench._atomic import atomic_write
 from fricbench._validation import check_int, check_range
 from fricbench.axis import Axis, SimulationResult, simulate
 from fricbench.predictors import make_predictor, predictor_registry
-from fricbench.predictors.base import Predictor, atomic_write_bytes
+from fricbench.predictors.base import Predictor
 from fricbench.predictors.precomp import precompensation_offset
 from fricbench.sysid.friction_error import extract_friction_error, identify_v_break_multi
 from fricbench.trajectories import make_trajectory
@@ -405,7 +406,7 @@ def reproduce(config: ReproduceConfig | None = None) -> ReproduceResult:
 def write_json(result: ReproduceResult, path: str | os.PathLike[str]) -> Path:
     """Write ``result.to_json()`` to ``path`` atomically; return the path."""
     path = Path(path)
-    atomic_write_bytes(path, (json.dumps(result.to_json(), indent=2) + "\n").encode())
+    atomic_write(path, json.dumps(result.to_json(), indent=2) + "\n")
     return path
 
 

@@ -10,15 +10,14 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
-from collections.abc import Callable
 
 import numpy as np
 
+from fricbench._atomic import atomic_write_via
 from fricbench.sysid.diagnose.diagnosis import DiagnosisResult
 from fricbench.sysid.diagnose.models import InverseDynamics
 
-__all__ = ["write_json", "write_report", "atomic_write", "jsonable", "PLOTS"]
+__all__ = ["write_json", "write_report", "jsonable", "PLOTS"]
 
 PLOTS = ("residual_time.png", "residual_velocity.png", "residual_position.png",
          "residual_reversals.png", "steps.png")
@@ -42,21 +41,6 @@ def jsonable(obj: object) -> object:
     return obj
 
 
-def atomic_write(path: str, write: Callable[[str], None]) -> None:
-    """Call ``write(tmp_path)`` then move ``tmp_path`` onto ``path`` in one step."""
-    directory = os.path.dirname(os.path.abspath(path))
-    base = os.path.basename(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".tmp", dir=directory)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_json(path: str, data: dict[str, object]) -> None:
     """Write ``data`` as indented JSON to ``path`` atomically."""
     text = json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n"
@@ -65,13 +49,13 @@ def write_json(path: str, data: dict[str, object]) -> None:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
 
-    atomic_write(path, _write)
+    atomic_write_via(path, _write)
 
 
 def _save(fig: object, path: str) -> None:
     import matplotlib.pyplot as plt
 
-    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))  # type: ignore
+    atomic_write_via(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))  # type: ignore
     plt.close(fig)  # type: ignore[arg-type]
 
 
