@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: bench test perf install clean
+.PHONY: bench test perf install clean clean-cache
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -27,3 +27,8 @@ perf: $(STAMP)
 
 clean:
 	rm -rf $(VENV)
+
+# numba's on-disk cache does not see edits to functions inlined from another module (the kernel
+# inlines the friction laws; the vector step inlines the kernel): clear it after such edits
+clean-cache:
+	find fricbench -name '*.nbi' -delete -o -name '*.nbc' -delete

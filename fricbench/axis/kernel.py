@@ -2,7 +2,9 @@
 
 Everything that simulates an axis (the scalar env, the native vector env, ``simulate``, the
 benchmark runner and the diagnosis) calls :func:`run_kernel`, which advances ``N`` independent
-axes over ``K`` control samples. There is no second copy of these equations anywhere.
+axes over ``K`` control samples; the native vector env's fused step
+(:mod:`fricbench.gym.vector_step`) inlines the same per-axis body, :func:`advance_axis`. There is
+no second copy of these equations anywhere.
 
 Per control sample ``k`` (period ``Ts``, zero-order hold on the current command):
 
@@ -27,7 +29,13 @@ import os
 import numba
 import numpy as np
 
-from fricbench.friction.laws import KIND_DAHL, KIND_LUGRE, KIND_STATIC, stribeck_level
+from fricbench.friction.laws import (
+    KIND_DAHL,
+    KIND_LUGRE,
+    KIND_STATIC,
+    stribeck_level,
+    stribeck_level_taylor,
+)
 
 # -- parameter vector layout (columns of P, one row per axis) ------------------------------------
 P_TS, P_NSUB, P_M, P_B, P_KT, P_IMAX, P_KP, P_KVFF, P_KAFF, P_KV, P_TI, P_FLOAD = range(12)
@@ -80,26 +88,35 @@ def _mechanics(x: float, v: float, z: float, f_ext: float, h: float, m: float, b
     """One substep of ``M dv/dt = f_ext - B v - F_f``: returns ``(v_new, z_new, F_f)``."""
     damping = b + fv
     if kind == KIND_STATIC:
-        # Kikuuwe: v+ = v* - h Sgn(v+) F_c / (M + h b); stick when |v*| <= h F_s / (M + h b)
-        m_eff = m + h * damping
-        v_star = (m * v + h * f_ext) / m_eff
+        # Kikuuwe: v+ = v* - h Sgn(v+) F_c / (M + h b); stick when |v*| <= h F_s / (M + h b).
+        # Reciprocals of the per-axis constants are loop-invariant once inlined: the substep
+        # chain then has no division on its critical path.
+        inv_m_eff = 1.0 / (m + h * damping)
+        h_inv_m_eff = h * inv_m_eff
+        inv_vs = 1.0 / vs if vs > 0.0 else 0.0
+        v_star = (m * v + h * f_ext) * inv_m_eff
         speed = abs(v_star)
-        if speed * m_eff <= h * max(fs, fc):
+        if speed <= h_inv_m_eff * max(fs, fc):
             v_new = 0.0
         else:
-            level = stribeck_level(speed, fc, fs, vs, delta)
-            v_new = v_star - math.copysign(h * level / m_eff, v_star)
+            level, slope, curv = stribeck_level_taylor(speed, fc, fs, inv_vs, delta)
+            v_new = v_star - math.copysign(level * h_inv_m_eff, v_star)
             if v_new * v_star < 0.0:
                 v_new = 0.0
-            elif vs > 0.0:
-                # one midpoint correction of the velocity-dependent level: 2nd-order accurate
-                # in sliding, where the Stribeck curve changes within a few substeps
+            elif slope != 0.0:
+                # one midpoint correction of the velocity-dependent level, 2nd-order accurate
+                # in sliding where the Stribeck curve changes within a few substeps; the level
+                # at the midpoint speed comes from its Taylor expansion about |v*| (one exp per
+                # substep, not two; the midpoint is a fraction of vs away)
                 v_mid = 0.5 * (abs(v_new) + (abs(v) if v * v_star > 0.0 else 0.0))
-                level = stribeck_level(v_mid, fc, fs, vs, delta)
-                v_new = v_star - math.copysign(h * level / m_eff, v_star)
+                dv = v_mid - speed
+                level_mid = level + dv * (slope + 0.5 * curv * dv)
+                level_mid = min(max(level_mid, min(fc, fs)), max(fc, fs))
+                v_new = v_star - math.copysign(level_mid * h_inv_m_eff, v_star)
                 if v_new * v_star < 0.0:
                     v_new = 0.0
-        f_fric = (m * v + h * f_ext - m * v_new) / h - b * v_new
+        # F_f = (M v + h f_ext - M v+) / h - b v+
+        f_fric = m * (v - v_new) * (1.0 / h) + f_ext - b * v_new
         return v_new, z, f_fric
     s1 = sigma1 if kind == KIND_LUGRE else 0.0
     g = fc if kind == KIND_DAHL else stribeck_level(abs(v), fc, fs, vs, delta)
@@ -116,11 +133,16 @@ def _mechanics(x: float, v: float, z: float, f_ext: float, h: float, m: float, b
     return v_new, z_new, f_bristle + s1 * v_new + fv * v_new
 
 
-def _run_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
+def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
               ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray,
               x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
               status: np.ndarray) -> None:
-    """Advance axis ``n`` over all samples (the body shared by the serial and parallel run)."""
+    """Advance axis ``n`` over all samples of its rows of ``xr, ...`` (inputs and outputs as in
+    :func:`run_kernel`).
+
+    The body shared by the serial and parallel drivers and by the fused vector-env step; it is
+    inlined into each caller.
+    """
     n_samples = xr.shape[1]
     p = P[n]
     s = S[n]
@@ -224,7 +246,7 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 _sensor = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_sensor)
 _measure = numba.njit(cache=True)(_measure)
 _mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
-_run_axis = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_run_axis)
+advance_axis = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance_axis)
 
 
 # Two drivers, two distinct functions: numba's on-disk cache is keyed by function, so one
@@ -236,7 +258,7 @@ def _run_serial(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray, ar
                 x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
                 status: np.ndarray) -> None:
     for n in range(xr.shape[0]):
-        _run_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force, friction,
+        advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force, friction,
                   status)
 
 
@@ -246,7 +268,7 @@ def _run_parallel(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
                   x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray,
                   friction: np.ndarray, status: np.ndarray) -> None:
     for n in numba.prange(xr.shape[0]):
-        _run_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force, friction,
+        advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force, friction,
                   status)
 
 # The threaded driver wins on an idle machine (8.1 M axis-steps/s at 4096 axes on 2 cores vs
@@ -309,6 +331,7 @@ def initial_state(P: np.ndarray, x0: np.ndarray, v0: np.ndarray, noise: np.ndarr
 
 __all__ = [
     "DELAY_MAX",
+    "FASTMATH",
     "KIND_DAHL",
     "KIND_LUGRE",
     "KIND_STATIC",
@@ -317,6 +340,7 @@ __all__ = [
     "STATUS_NONFINITE",
     "STATUS_OK",
     "STATUS_RUNAWAY",
+    "advance_axis",
     "initial_state",
     "run_kernel",
 ]

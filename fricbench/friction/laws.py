@@ -13,7 +13,14 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["KIND_DAHL", "KIND_LUGRE", "KIND_STATIC", "steady_force", "stribeck_level"]
+__all__ = [
+    "KIND_DAHL",
+    "KIND_LUGRE",
+    "KIND_STATIC",
+    "steady_force",
+    "stribeck_level",
+    "stribeck_level_taylor",
+]
 
 # Kernel codes of the friction dynamics. Static laws use the stick-slip-correct implicit update
 # (Kikuuwe et al. 2005); dynamic laws carry a bristle/pre-sliding state z (m).
@@ -39,6 +46,29 @@ def stribeck_level(speed: float, fc: float, fs: float, vs: float, delta: float) 
         return fc
     # g(v) = fc + (fs - fc) exp(-(v/vs)^delta)
     return fc + (fs - fc) * math.exp(-e)
+
+
+@numba.njit(cache=True, inline="always")
+def stribeck_level_taylor(speed: float, fc: float, fs: float, inv_vs: float,
+                          delta: float) -> tuple[float, float, float]:
+    """:func:`stribeck_level` at ``speed > 0`` with its first and second derivatives in
+    ``|v|`` (N s/m, N s^2/m^2), from one ``exp``; ``inv_vs = 1 / vs`` (0: plain Coulomb)."""
+    if inv_vs <= 0.0:
+        return fc, 0.0, 0.0
+    r = speed * inv_vs
+    if delta == 2.0:
+        e = r * r
+        de = 2.0 * r * inv_vs
+        d2e = 2.0 * inv_vs * inv_vs
+    else:
+        e = r**delta
+        de = delta * e / speed
+        d2e = (delta - 1.0) * de / speed
+    if e > 40.0:
+        return fc, 0.0, 0.0
+    # g = fc + (fs - fc) exp(-e):  g' = -(g - fc) e',  g'' = (g - fc) (e'^2 - e'')
+    stribeck = (fs - fc) * math.exp(-e)
+    return fc + stribeck, -stribeck * de, stribeck * (de * de - d2e)
 
 
 @numba.njit(cache=True)

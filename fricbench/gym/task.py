@@ -36,6 +36,7 @@ __all__ = [
     "TrajectoryChoice",
     "apply_action",
     "fill_observation",
+    "observe_row",
     "n_features",
     "reference_for",
 ]
@@ -242,6 +243,31 @@ def preview_offsets(cfg: ObservationConfig) -> np.ndarray:
     return cfg.preview_stride * np.arange(1, cfg.preview + 1)
 
 
+@numba.njit(cache=True, inline="always")
+def observe_row(r: int, S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray,
+                A: np.ndarray, i: int, kk: int, offsets: np.ndarray, prev_action: float,
+                inv: np.ndarray, out: np.ndarray) -> None:
+    """Fill ``out[r]`` with the scaled observation of axis ``r`` of ``S`` following reference
+    row ``i`` of the tables ``X, V, A`` at sample ``kk`` (the layout of :func:`fill_observation`;
+    ``inv`` holds the reciprocals of the scales, so the row costs no division).
+    """
+    n_prev = offsets.shape[0]
+    inv_e, inv_x, inv_v, inv_a, inv_f = inv[0], inv[1], inv[2], inv[3], inv[4]
+    # e = x_ref[k] - x_meas[k]
+    out[r, 0] = (X[i, kk] - S[r, S_XMEAS]) * inv_e
+    out[r, 1] = X[i, kk] * inv_x
+    out[r, 2] = V[i, kk] * inv_v
+    out[r, 3] = A[i, kk] * inv_a
+    # measured velocity (x_fb[k] - x_fb[k-1]) / Ts
+    out[r, 4] = (S[r, S_XFB] - S[r, S_XFB_PREV]) / P[r, P_TS] * inv_v
+    out[r, 5] = prev_action
+    out[r, 6] = P[r, P_KT] * S[r, S_IAPP] * inv_f
+    for j in range(n_prev):
+        o = kk + offsets[j]
+        out[r, 7 + j] = V[i, o] * inv_v
+        out[r, 7 + n_prev + j] = A[i, o] * inv_a
+
+
 @numba.njit(cache=True)
 def fill_observation(S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray, A: np.ndarray,
                      rows: np.ndarray, k: np.ndarray, offsets: np.ndarray,
@@ -254,21 +280,9 @@ def fill_observation(S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray,
     ``(e_s, x_s, v_s, a_s, F_s)``; ``F_motor = kt i`` is the force of the last sample (drives
     report their current).
     """
-    n_prev = offsets.shape[0]
+    inv = 1.0 / scales
     for r in range(S.shape[0]):
-        i = rows[r]
-        kk = k[r]
-        # e = x_ref[k] - x_meas[k]
-        out[r, 0] = (X[i, kk] - S[r, S_XMEAS]) / scales[0]
-        out[r, 1] = X[i, kk] / scales[1]
-        out[r, 2] = V[i, kk] / scales[2]
-        out[r, 3] = A[i, kk] / scales[3]
-        out[r, 4] = (S[r, S_XFB] - S[r, S_XFB_PREV]) / P[r, P_TS] / scales[2]
-        out[r, 5] = prev_action[r]
-        out[r, 6] = P[r, P_KT] * S[r, S_IAPP] / scales[4]
-        for j in range(n_prev):
-            out[r, 7 + j] = V[i, kk + offsets[j]] / scales[2]
-            out[r, 7 + n_prev + j] = A[i, kk + offsets[j]] / scales[3]
+        observe_row(r, S, P, X, V, A, rows[r], k[r], offsets, prev_action[r], inv, out)
 
 
 def obs_scales(cfg: ObservationConfig) -> np.ndarray:

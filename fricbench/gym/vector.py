@@ -10,9 +10,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from fricbench.axis import Axis, AxisBatch
+from fricbench.axis.batch import SimulationDivergedError
 from fricbench.gym.task import (
     TaskConfig,
-    check_action,
     fill_observation,
     n_features,
     obs_scales,
@@ -20,6 +20,7 @@ from fricbench.gym.task import (
     reference_for,
     stack_references,
 )
+from fricbench.gym.vector_step import vector_step
 
 __all__ = ["ServoAxisVectorEnv"]
 
@@ -27,8 +28,9 @@ __all__ = ["ServoAxisVectorEnv"]
 class ServoAxisVectorEnv(VectorEnv):
     """A native vector version of :class:`~fricbench.gym.env.ServoAxisEnv` (single axis).
 
-    All sub-envs share one :class:`~fricbench.axis.AxisBatch`, so a step is one kernel call for
-    every axis (parallel over cores above 256 envs). References come from a pool generated at
+    All sub-envs share one :class:`~fricbench.axis.AxisBatch`, and a step is one compiled call
+    (:func:`~fricbench.gym.vector_step.vector_step`) over every sub-env: action check and
+    clipping, reference look-up, the axis kernel, observation, reward and truncation. References come from a pool generated at
     construction (``reference_pool`` per seeded trajectory choice, e.g. ``random``), and each
     sub-env draws from the pool at reset. Observations, actions and rewards are those of the
     scalar env; autoreset follows Gymnasium's ``NEXT_STEP`` mode.
@@ -81,15 +83,10 @@ class ServoAxisVectorEnv(VectorEnv):
         self._ref_id = np.zeros(n, dtype=np.int64)
         self._k = np.zeros(n, dtype=np.int64)
         self._prev_action = np.zeros(n)
-        self._u_force = np.zeros((n, 1))
-        self._u_off = np.zeros((n, 1))
-        self._noise = np.zeros((n, 1))
         self._obs = np.zeros((n, self._nf))
         self._autoreset = np.zeros(n, dtype=bool)
-        self._out = tuple(np.empty((n, 1)) for _ in range(4))
-        self._xr = np.empty((n, 1))
-        self._vr = np.empty((n, 1))
-        self._ar = np.empty((n, 1))
+        self._work = np.zeros((10, n, 1))
+        self._no_noise = np.zeros(n)
         self._np_random = np.random.default_rng(seed)
 
     def _reset_rows(self, rows: np.ndarray) -> None:
@@ -121,50 +118,43 @@ class ServoAxisVectorEnv(VectorEnv):
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                                  dict[str, Any]]:
-        a = check_action(actions, (self.num_envs, 1))[:, 0]
-        pending = self._autoreset.any()
-        if pending:
-            self._reset_rows(self._autoreset)
-            live = ~self._autoreset
-            act = np.where(live, a, 0.0)
-        else:
-            act = a
-        rid, k = self._ref_id, self._k
-        self._xr[:, 0] = self._X[rid, k]
-        self._vr[:, 0] = self._V[rid, k]
-        self._ar[:, 0] = self._A[rid, k]
-        target = self._u_force if self.task.action == "force" else self._u_off
-        np.multiply(act, self.task.action_scale, out=target[:, 0])
-        if self.axis.needs_noise:
-            self._noise[:, 0] = self._np_random.standard_normal(self.num_envs)
-        if pending:
-            # rows that were just reset do not advance: their observation is the reset one
-            self._step_live(live)
-            self._k = np.where(live, k + 1, k)
-        else:
-            self._batch.run(self._xr, self._vr, self._ar, self._u_force, self._u_off,
-                            self._noise, out=self._out)
-            self._k = k + 1
-        self._prev_action = act
-        obs = self._observation()
-        err = obs[:, 0].astype(np.float64) * self.task.observation.error_scale
-        rewards = -(err / self.task.reward.error_scale) ** 2 \
-            - self.task.reward.action_weight * act**2
-        truncated = self._k >= self._len[rid] - 1
-        if pending:
-            rewards[~live] = 0.0
-            truncated &= live
-        terminated = np.zeros(self.num_envs, dtype=bool)
+        a = np.asarray(actions, dtype=np.float64)
+        if a.size != self.num_envs or a.ndim > 2:
+            raise ValueError(f"actions have shape {np.shape(actions)}: expected "
+                             f"({self.num_envs}, 1)")
+        a = a.reshape(self.num_envs)
+        hold = self._autoreset
+        if hold.any():
+            self._reset_rows(hold)
+        draws = self._np_random.standard_normal(self.num_envs) if self.axis.needs_noise \
+            else self._no_noise
+        obs = np.empty((self.num_envs, self._nf), dtype=np.float32)
+        rewards = np.empty(self.num_envs)
+        truncated = np.empty(self.num_envs, dtype=bool)
+        reward = self.task.reward
+        code = vector_step(self._batch.P, self._batch.S, self._X, self._V, self._A, self._len,
+                           self._ref_id, self._k, a, hold, self.task.action == "force",
+                           self.task.action_scale, draws, self._offsets, self._scales,
+                           reward.error_scale, reward.action_weight, self._prev_action,
+                           self._work, self._batch.status, obs, rewards, truncated)
+        if code < 0:
+            raise ValueError(f"actions[{-1 - code}] = {a[-1 - code]!r}: contains NaN or inf")
+        if code > 0:
+            self._raise_diverged(code - 1)
         self._autoreset = truncated.copy()
-        return obs, rewards, terminated, truncated, {}
+        return obs, rewards, np.zeros(self.num_envs, dtype=bool), truncated, {}
 
-    def _step_live(self, live: np.ndarray) -> None:
-        # sub-batches are rare (only on autoreset steps): run all rows, then restore the states
-        # of the rows that must not move
-        saved = self._batch.S[~live].copy()
-        self._batch.run(self._xr, self._vr, self._ar, self._u_force, self._u_off, self._noise,
-                        out=self._out)
-        self._batch.S[~live] = saved
+    def _raise_diverged(self, row: int) -> None:
+        # re-run the failing row through AxisBatch.run, which raises with time, state and cause
+        b = self._batch
+        one = AxisBatch(b.axes[row])
+        one.S[:] = b.S[row]
+        one.status[:] = b.status[row]
+        try:
+            one.run(np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0)))
+        except SimulationDivergedError as exc:
+            raise SimulationDivergedError(f"sub-env {row}: {exc}") from None
+        raise SimulationDivergedError(f"sub-env {row}: diverged (status {b.status[row]})")
 
     def _observation(self) -> np.ndarray:
         fill_observation(self._batch.S, self._batch.P, self._X, self._V, self._A, self._ref_id,

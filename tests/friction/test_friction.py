@@ -120,3 +120,21 @@ def test_friction_dissipates_under_random_forcing(fid: str) -> None:
     # tiny negative mean-force x displacement product, never a net gain
     assert work.sum() > 0.0
     assert -work[work < 0].sum() <= 1e-3 * work[work > 0].sum()
+
+
+@pytest.mark.parametrize("delta", [2.0, 1.0, 0.6])
+def test_stribeck_taylor_matches_level_and_its_derivatives(delta: float) -> None:
+    from fricbench.friction.laws import stribeck_level, stribeck_level_taylor
+
+    fc, fs, vs = 300.0, 480.0, 0.003
+    for speed in (1e-4, 0.001, 0.003, 0.008):
+        g, dg, d2g = stribeck_level_taylor(speed, fc, fs, 1.0 / vs, delta)
+        assert g == pytest.approx(stribeck_level(speed, fc, fs, vs, delta), rel=1e-12)
+        h = 1e-7
+        up = stribeck_level(speed + h, fc, fs, vs, delta)
+        dn = stribeck_level(speed - h, fc, fs, vs, delta)
+        assert dg == pytest.approx((up - dn) / (2 * h), rel=1e-5)
+        assert d2g == pytest.approx((up - 2 * g + dn) / h**2, rel=1e-3, abs=1e-3 * abs(dg) / vs)
+    # far above vs the law is plain Coulomb, with no slope
+    assert stribeck_level_taylor(50.0, fc, fs, 1.0 / vs, delta) == (fc, 0.0, 0.0)
+    assert stribeck_level_taylor(0.001, fc, fs, 0.0, delta) == (fc, 0.0, 0.0)

@@ -36,7 +36,7 @@ import math
 import numba
 import numpy as np
 
-from fricbench.friction.laws import stribeck_level
+from fricbench.friction.laws import stribeck_level, stribeck_level_taylor
 
 __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_plant",
            "sliding_force",
@@ -84,6 +84,19 @@ def _level(p: np.ndarray, speed: float, sigma: float, scale: float) -> float:
         return scale * fc  # no Stribeck term: skip the exponential
     fs = fc + p[I_FS]
     return scale * stribeck_level(speed, fc, fs, p[I_VS], 2.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _level_taylor(p: np.ndarray, speed: float, sigma: float,
+                  scale: float) -> tuple[float, float, float]:
+    """:func:`_level` with its first and second derivatives in ``speed`` (one ``exp``)."""
+    fc = p[I_FC] + 0.5 * sigma * p[I_DFC]
+    if fc < 0.0:
+        fc = 0.0
+    if p[I_FS] == 0.0 or p[I_VS] <= 0.0:
+        return scale * fc, 0.0, 0.0
+    g, dg, d2g = stribeck_level_taylor(speed, fc, fc + p[I_FS], 1.0 / p[I_VS], 2.0)
+    return scale * g, scale * dg, scale * d2g
 
 
 @numba.njit(cache=True)
@@ -149,15 +162,20 @@ def _substep(p: np.ndarray, x: float, v: float, force: float, h: float, inv_pos:
         v_new = 0.0
     else:
         v_star = mom * inv_meff
-        level = _level(p, abs(v_star), sigma, scale)
+        speed = abs(v_star)
+        level, slope, curv = _level_taylor(p, speed, sigma, scale)
         v_new = v_star - sigma * h * level * inv_meff
         if v_new * sigma < 0.0:
             v_new = 0.0
-        elif p[I_FS] > 0.0:
-            # midpoint correction of the velocity-dependent Stribeck level
+        elif slope != 0.0:
+            # midpoint correction of the velocity-dependent Stribeck level, from its Taylor
+            # expansion about |v*| (as the axis kernel does)
             v_mid = 0.5 * (abs(v_new) + (abs(v) if v * sigma > 0.0 else 0.0))
-            level = _level(p, v_mid, sigma, scale)
-            v_new = v_star - sigma * h * level * inv_meff
+            dv = v_mid - speed
+            level_mid = level + dv * (slope + 0.5 * curv * dv)
+            lo = scale * fc_dir
+            level_mid = min(max(level_mid, lo), lo + scale * p[I_FS])
+            v_new = v_star - sigma * h * level_mid * inv_meff
             if v_new * sigma < 0.0:
                 v_new = 0.0
     # trapezoidal position update

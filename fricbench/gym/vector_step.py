@@ -1,0 +1,118 @@
+"""One compiled call per vector-env step: action check, reference look-up, the axis kernel,
+observation, reward and truncation for every sub-env.
+
+The physics is the kernel's own per-axis body (:func:`fricbench.axis.kernel.advance_axis`) and
+the observation is :func:`fricbench.gym.task.observe_row`; this module only fuses the per-step
+glue around them, which in numpy cost as much as the physics at 4096 envs (a dozen passes over
+the batch and their temporaries).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis
+from fricbench.gym.task import observe_row
+
+__all__ = ["vector_step"]
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def vector_step(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray, A: np.ndarray,
+                lengths: np.ndarray, ref_id: np.ndarray, k: np.ndarray, action: np.ndarray,
+                hold: np.ndarray, force_action: bool, action_scale: float, draws: np.ndarray,
+                offsets: np.ndarray, scales: np.ndarray, reward_error_scale: float,
+                action_weight: float, prev_action: np.ndarray, work: np.ndarray,
+                status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+                truncated: np.ndarray) -> int:
+    """Advance every sub-env that is not held by one control sample.
+
+    Parameters
+    ----------
+    P, S : ndarray
+        Packed parameters and states of the ``N`` axes (kernel layout); ``S`` is updated.
+    X, V, A : ndarray, shape (R, L)
+        Padded reference tables; sub-env ``n`` follows row ``ref_id[n]`` at sample ``k[n]``.
+    lengths : ndarray of int64, shape (R,)
+        Samples of each reference (the episode truncates at ``lengths - 1``).
+    ref_id, k : ndarray of int64, shape (N,)
+        Reference row and sample index of each sub-env; ``k`` is advanced.
+    action : ndarray, shape (N,)
+        Raw actions; clipped to [-1, 1] (NaN/inf: nothing is changed and ``-1 - n`` is returned
+        for the first bad row ``n``).
+    hold : ndarray of bool, shape (N,)
+        Rows that were just reset (Gymnasium ``NEXT_STEP`` autoreset): they do not move, report
+        their reset observation, reward 0 and no truncation.
+    force_action : bool
+        Action is a force at the velocity-loop output (else a reference offset).
+    action_scale : float
+        N (force) or m (offset) per unit action.
+    draws : ndarray, shape (N,)
+        Standard normal draws for the measurement noise of this step.
+    offsets, scales : ndarray
+        Preview offsets and observation scales (:func:`fricbench.gym.task.obs_scales`).
+    reward_error_scale, action_weight : float
+        ``r = -(e / reward_error_scale)^2 - action_weight a^2`` with ``e`` the measured error.
+    prev_action : ndarray, shape (N,)
+        Updated with the applied (clipped) action.
+    work : ndarray, shape (10, N, 1)
+        Scratch rows for the kernel's inputs and outputs.
+    status : ndarray of int64, shape (N,)
+        Kernel status; non-zero for an axis whose state diverged.
+    obs : ndarray of float32, shape (N, n_features)
+    reward : ndarray, shape (N,)
+    truncated : ndarray of bool, shape (N,)
+
+    Returns
+    -------
+    int
+        0 on success, ``1 + n`` for the first diverged axis ``n``, ``-1 - n`` for the first
+        non-finite action ``n`` (nothing changed).
+    """
+    n_env = S.shape[0]
+    for n in range(n_env):
+        if not hold[n] and not math.isfinite(action[n]):
+            return -1 - n
+    xr, vr, ar, u_force, u_off, noise = work[0], work[1], work[2], work[3], work[4], work[5]
+    x_true, x_meas, force, friction = work[6], work[7], work[8], work[9]
+    inv = 1.0 / scales
+    # the reward scores the error feature (float64) as the scalar env does: e = o_0 * e_s
+    inv_r = scales[0] / reward_error_scale
+    first_bad = 0
+    for n in range(n_env):
+        i = ref_id[n]
+        if hold[n]:
+            a = 0.0
+        else:
+            a = min(1.0, max(-1.0, action[n]))
+            kk = k[n]
+            xr[n, 0] = X[i, kk]
+            vr[n, 0] = V[i, kk]
+            ar[n, 0] = A[i, kk]
+            if force_action:
+                u_force[n, 0] = a * action_scale
+                u_off[n, 0] = 0.0
+            else:
+                u_force[n, 0] = 0.0
+                u_off[n, 0] = a * action_scale
+            noise[n, 0] = draws[n]
+            advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force,
+                         friction, status)
+            if status[n] != 0 and first_bad == 0:
+                first_bad = n + 1
+            k[n] = kk + 1
+        prev_action[n] = a
+        kk = k[n]
+        err = (X[i, kk] - S[n, S_XMEAS]) * inv[0]
+        observe_row(n, S, P, X, V, A, i, kk, offsets, a, inv, obs)
+        if hold[n]:
+            reward[n] = 0.0
+            truncated[n] = False
+        else:
+            e = err * inv_r
+            reward[n] = -e * e - action_weight * a * a
+            truncated[n] = kk >= lengths[i] - 1
+    return first_bad

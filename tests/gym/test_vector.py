@@ -1,0 +1,89 @@
+"""The native vector env's fused step: autoreset, bad actions, clipping, divergence."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fricbench.axis import SimulationDivergedError
+from fricbench.gym import get_spec
+from fricbench.gym.task import TrajectoryChoice
+from fricbench.gym.vector import ServoAxisVectorEnv
+
+
+def _venv(n: int = 3, trajectory: str = "s_curve", **axis_changes: float) -> ServoAxisVectorEnv:
+    spec = get_spec("fricbench/PaperAxis-v0")
+    task = replace(spec.task, trajectories=(TrajectoryChoice(trajectory),))
+    axis = spec.axis.with_controller(**axis_changes) if axis_changes else spec.axis
+    return ServoAxisVectorEnv(num_envs=n, axis=axis, task=task, reference_pool=1)
+
+
+def test_next_step_autoreset_holds_the_reset_row() -> None:
+    venv = _venv(2)
+    first, _ = venv.reset(seed=3)
+    length = int(venv._len[0])
+    zeros = np.zeros((2, 1), dtype=np.float32)
+    for step in range(1, length):
+        obs, rew, term, trunc, _ = venv.step(zeros)
+        assert not term.any()
+        assert trunc.all() == (step == length - 1)
+    assert trunc.all()
+    # NEXT_STEP: the step after truncation returns the reset observation, reward 0, and does
+    # not move the axis; the one after that moves again
+    obs, rew, _, trunc, _ = venv.step(np.ones((2, 1), dtype=np.float32))
+    np.testing.assert_allclose(obs, first, atol=1e-6)
+    assert (rew == 0.0).all() and not trunc.any()
+    assert (obs[:, 5] == 0.0).all()  # previous action of a reset row is 0
+    assert (venv._k == 0).all()
+    obs, rew, _, _, _ = venv.step(np.ones((2, 1), dtype=np.float32))
+    assert (venv._k == 1).all() and (rew < 0.0).all()
+
+
+def test_nan_action_raises_and_changes_nothing() -> None:
+    venv = _venv(3)
+    venv.reset(seed=0)
+    for _ in range(20):
+        venv.step(np.full((3, 1), 0.1, dtype=np.float32))
+    state, k = venv._batch.S.copy(), venv._k.copy()
+    bad = np.full((3, 1), 0.1)
+    bad[2, 0] = np.nan
+    with pytest.raises(ValueError, match=r"actions\[2\].*NaN or inf"):
+        venv.step(bad)
+    bad[2, 0] = -np.inf
+    with pytest.raises(ValueError, match="NaN or inf"):
+        venv.step(bad)
+    np.testing.assert_array_equal(venv._batch.S, state)
+    np.testing.assert_array_equal(venv._k, k)
+    with pytest.raises(ValueError, match="shape"):
+        venv.step(np.zeros((4, 1)))
+
+
+def test_out_of_range_actions_are_clipped() -> None:
+    a, b = _venv(2), _venv(2)
+    a.reset(seed=1)
+    b.reset(seed=1)
+    for _ in range(30):
+        oa, ra, *_ = a.step(np.full((2, 1), 7.0))
+        ob, rb, *_ = b.step(np.full((2, 1), 1.0))
+    np.testing.assert_array_equal(oa, ob)
+    np.testing.assert_array_equal(ra, rb)
+    assert (oa[:, 5] == 1.0).all()
+
+
+def test_unstable_parameters_raise_naming_the_sub_env() -> None:
+    venv = _venv(2, kv=5000.0, i_max=1e9)
+    venv.reset(seed=0)
+    with pytest.raises(SimulationDivergedError, match="sub-env 0.*unstable"):
+        for _ in range(3000):
+            venv.step(np.zeros((2, 1)))
+
+
+def test_observations_are_fresh_arrays() -> None:
+    venv = _venv(2)
+    o1, _ = venv.reset(seed=0)
+    o2, *_ = venv.step(np.zeros((2, 1)))
+    o3, *_ = venv.step(np.zeros((2, 1)))
+    assert o2.dtype == np.float32 and o2 is not o3
+    assert not np.shares_memory(o2, o3)
