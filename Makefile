@@ -20,6 +20,7 @@ bench: $(STAMP)
 	$(BIN)/fricbench bench
 
 test: $(STAMP)
+	$(BIN)/ruff check fricbench tests examples
 	$(BIN)/python -m pytest -n 2 -q tests
 
 perf: $(STAMP)

@@ -30,10 +30,10 @@ class ServoAxisVectorEnv(VectorEnv):
 
     All sub-envs share one :class:`~fricbench.axis.AxisBatch`, and a step is one compiled call
     (:func:`~fricbench.gym.vector_step.vector_step`) over every sub-env: action check and
-    clipping, reference look-up, the axis kernel, observation, reward and truncation. References come from a pool generated at
-    construction (``reference_pool`` per seeded trajectory choice, e.g. ``random``), and each
-    sub-env draws from the pool at reset. Observations, actions and rewards are those of the
-    scalar env; autoreset follows Gymnasium's ``NEXT_STEP`` mode.
+    clipping, reference look-up, the axis kernel, observation, reward and truncation.
+    References come from a pool generated at construction (``reference_pool`` per seeded
+    trajectory choice, e.g. ``random``), and each sub-env draws from the pool at reset.
+    Observations, actions and rewards are those of the scalar env; autoreset follows Gymnasium's ``NEXT_STEP`` mode.
 
     Parameters
     ----------
