@@ -33,7 +33,8 @@ class ServoAxisVectorEnv(VectorEnv):
     clipping, reference look-up, the axis kernel, observation, reward and truncation.
     References come from a pool generated at construction (``reference_pool`` per seeded
     trajectory choice, e.g. ``random``), and each sub-env draws from the pool at reset.
-    Observations, actions and rewards are those of the scalar env; autoreset follows Gymnasium's ``NEXT_STEP`` mode.
+    Observations, actions and rewards are those of the scalar env; autoreset follows
+    Gymnasium's ``NEXT_STEP`` mode.
 
     Parameters
     ----------
