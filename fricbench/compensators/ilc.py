@@ -41,11 +41,11 @@ from typing import ClassVar
 
 import control
 import numpy as np
-from scipy import signal
 
 from fricbench._validation import check_choice, check_int, check_positive, check_range
 from fricbench.axis import Axis, closed_loop
 from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
+from fricbench.sysid.inverse import inverse_gain, zero_phase_lowpass
 
 __all__ = ["IterativeLearningControl", "ForceILC", "impulse_response"]
 
@@ -167,11 +167,8 @@ class IterativeLearningControl(Compensator):
         d, k_total = ref.n_axes, ref.n_samples
         h = impulse_response(axis, self.action_mode, self.model_length)
         n_fft = 1 << int(np.ceil(np.log2(k_total + h.size)))
-        p = np.fft.rfft(h, n_fft)
         # L = gamma conj(P) / (|P|^2 + beta max|P|^2)
-        learn = self.gain * np.conj(p) / (np.abs(p) ** 2 + self.beta * np.max(np.abs(p)) ** 2)
-        b, a = signal.butter(self.q_order, self.q_cutoff, fs=1.0 / ts)
-        pad = min(3 * max(len(a), len(b)), k_total - 1)
+        learn = self.gain * inverse_gain(h, n_fft, self.beta)
         limit = context.task.action_scale
         seeds = np.random.SeedSequence(0 if seed is None else int(seed)).generate_state(
             self.iterations)
@@ -192,7 +189,7 @@ class IterativeLearningControl(Compensator):
                 best = (max_meas, u.copy(), j)
             # u_{j+1} = Q(u_j + gamma L e_j)
             du = np.fft.irfft(learn * np.fft.rfft(e, n_fft, axis=1), n_fft, axis=1)[:, :k_total]
-            u = signal.filtfilt(b, a, u + du, axis=1, padlen=pad)
+            u = zero_phase_lowpass(u + du, self.q_cutoff, ts, self.q_order)
             u = np.clip(u, -limit, limit)
         if self.keep == "best":
             self.kept_iteration_ = best[2]

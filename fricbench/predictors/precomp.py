@@ -10,6 +10,13 @@ the offset becomes the fixed point of::
 i.e. the command whose *predicted* response is the nominal reference. One iteration is the
 paper's one-shot pre-compensation.
 
+``inverse=True`` (model-inverse pre-compensation) replaces each correction ``c`` by
+``Q(L c)``, the stable non-causal inverse of the predictor's own transfer function ``G``
+(:mod:`fricbench.sysid.inverse`): the offset that the loop turns into the wanted correction,
+instead of assuming ``G = 1``. The loop passes a command change to the position with its own
+lag, so shifting the reference by ``e_pred`` alone arrives late and small at the friction
+spikes, which last a few loop time constants.
+
 How to apply it on the simulator (the actual error is measured there, never the predicted one)::
 
     offset = precompensation_offset(predictor, reference, iterations=1)
@@ -24,15 +31,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from fricbench._validation import check_int, check_range
+from fricbench._validation import check_int, check_positive, check_range
 from fricbench.predictors.base import Predictor
+from fricbench.sysid.inverse import pulse_response, stable_inverse
 from fricbench.trajectories.base import Reference
 
 __all__ = ["precompensation_offset", "precompensated_reference"]
 
 
 def precompensation_offset(predictor: Predictor, reference: Reference, iterations: int = 1, *,
-                           gain: float = 1.0, advance: int = 0) -> np.ndarray:
+                           gain: float = 1.0, advance: int = 0, inverse: bool = False,
+                           beta: float = 1e-2, q_cutoff: float = 100.0) -> np.ndarray:
     """Reference offset that pre-compensates the predicted tracking error, m, shape (K,).
 
     Parameters
@@ -49,6 +58,13 @@ def precompensation_offset(predictor: Predictor, reference: Reference, iteration
         Samples by which each correction is applied earlier (phase lead, as in lead-ILC):
         the loop needs time to build force, so a correction commanded a few samples ahead
         acts when the error happens. 0 (default) is the paper's ``x_r + e_pred``.
+    inverse : bool, optional
+        Pass each correction through the regularised stable inverse of the predictor's
+        transfer function ``tf_`` (module docstring); needs a predictor with ``tf_``.
+    beta : float, optional
+        Regularisation of the inverse, relative to ``max |G|^2`` (``inverse=True`` only).
+    q_cutoff : float, optional
+        Cutoff of the zero-phase low-pass on the inverted correction, Hz (``inverse=True``).
 
     Returns
     -------
@@ -63,6 +79,15 @@ def precompensation_offset(predictor: Predictor, reference: Reference, iteration
     if not isinstance(reference, Reference):
         raise TypeError(f"reference={type(reference).__name__}: expected a Reference")
     x_r = np.asarray(reference.x, dtype=float)
+    h = None
+    if inverse:
+        g = getattr(predictor, "tf_", None)
+        if g is None:
+            raise ValueError(f"inverse=True: predictor {type(predictor).__name__} has no "
+                             "identified transfer function tf_ to invert; use inverse=False")
+        check_positive("beta", beta)
+        check_positive("q_cutoff", q_cutoff, "Hz")
+        h = pulse_response(g, reference.ts)
     offset = np.zeros_like(x_r)
     for _ in range(iterations):
         commanded = reference if not offset.any() else precompensated_reference(reference, offset)
@@ -71,6 +96,8 @@ def precompensation_offset(predictor: Predictor, reference: Reference, iteration
         if advance:
             step = np.concatenate([step[advance:], np.full(min(advance, step.shape[0]),
                                                            step[-1])])[: step.shape[0]]
+        if h is not None:
+            step = stable_inverse(h, step, reference.ts, beta=beta, cutoff=q_cutoff)
         offset = offset + gain * step
     return offset
 

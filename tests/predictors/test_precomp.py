@@ -59,3 +59,28 @@ def test_bad_arguments(linear_setup) -> None:
         precompensation_offset(object(), ref)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="offset has shape"):
         precompensated_reference(ref, np.zeros(3))
+
+
+def test_model_inverse_one_shot_beats_the_plain_shift_on_the_linear_error(linear_setup) -> None:
+    axis, pred, ref = linear_setup
+    one = simulate(axis, ref, u_offset=precompensation_offset(pred, ref)).max_error
+    inv = simulate(axis, ref, u_offset=precompensation_offset(pred, ref, inverse=True)).max_error
+    # the shift x_r + e_pred reaches the position through G (late, smaller); G^-1 does not
+    assert inv < 0.5 * one
+
+
+def test_model_inverse_needs_a_transfer_function(linear_setup) -> None:
+    _, pred, ref = linear_setup
+
+    class NoTF(type(pred)):  # type: ignore[misc]
+        pass
+
+    bare = NoTF.__new__(NoTF)
+    bare.ts_ = pred.ts_
+    bare._predict_position = lambda x: x  # type: ignore[method-assign]
+    with pytest.raises(ValueError, match="tf_"):
+        precompensation_offset(bare, ref, inverse=True)
+    with pytest.raises(ValueError, match="beta"):
+        precompensation_offset(pred, ref, inverse=True, beta=0.0)
+    with pytest.raises(ValueError, match="cutoff"):
+        precompensation_offset(pred, ref, inverse=True, q_cutoff=600.0)
