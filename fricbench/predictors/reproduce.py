@@ -75,8 +75,9 @@ class ReproduceConfig:
     predictor_params : dict
         Overrides passed to every predictor whose constructor takes them (e.g.
         ``{"max_epochs": 3}`` for a smoke run).
-    precomp_grid : tuple of (int, float, int)
-        ``(iterations, gain, advance)`` settings of :func:`precompensation_offset` tried on
+    precomp_grid : tuple of (int, float, int[, bool])
+        ``(iterations, gain, advance[, inverse])`` settings of :func:`precompensation_offset`
+        tried on
         the *training* references (fresh noise seeds); the best one per predictor is then
         applied to the held-out run and reported as "tuned" beside the paper's one-shot
         ``(1, 1.0, 0)``.
@@ -93,8 +94,9 @@ class ReproduceConfig:
     test_seed: int = 101
     predictors: tuple[str, ...] = ("tf", "tf+lstm", "tf+stribeck", "tf+lstm-phys")
     predictor_params: dict[str, Any] = field(default_factory=dict)
-    precomp_grid: tuple[tuple[int, float, int], ...] = (
+    precomp_grid: tuple[tuple[Any, ...], ...] = (
         (1, 1.0, 0), (1, 0.7, 0), (1, 1.0, 3), (1, 0.85, 3), (1, 0.7, 3), (1, 0.5, 3),
+        (1, 1.0, 0, True), (1, 1.0, 2, True), (1, 0.85, 2, True), (1, 1.0, 4, True),
         (1, 0.7, 5), (1, 0.5, 5), (3, 0.5, 3), (5, 0.3, 3))
     cross_training: tuple[tuple[str, dict[str, Any]], ...] = (
         ("m_serial", {}), ("reversal_sine", {"cycles": 1}))
@@ -110,8 +112,12 @@ class ReproduceConfig:
             raise ValueError(f"test_seed={self.test_seed}: expected a seed other than "
                              "train_seed (held-out runs must differ from the training runs)")
         if not self.precomp_grid:
-            raise ValueError("precomp_grid is empty: expected (iterations, gain, advance) "
-                             "settings, e.g. ((1, 1.0, 0),)")
+            raise ValueError("precomp_grid is empty: expected (iterations, gain, advance"
+                             "[, inverse]) settings, e.g. ((1, 1.0, 0),)")
+        for g in self.precomp_grid:
+            if len(g) not in (3, 4):
+                raise ValueError(f"precomp_grid entry {g!r}: expected (iterations, gain, "
+                                 "advance) or (iterations, gain, advance, inverse)")
         if not isinstance(self.predictor_params, dict):
             raise TypeError(f"predictor_params={self.predictor_params!r}: expected a dict")
 
@@ -141,7 +147,7 @@ class TrajectoryReport:
         references), m.
     precomp_max_um : dict of str to float
     precomp_settings : dict of str to tuple
-        ``(iterations, gain, advance)`` behind each ``"<id> tuned"`` entry.
+        ``(iterations, gain, advance, inverse)`` behind each ``"<id> tuned"`` entry.
     """
 
     name: str
@@ -154,7 +160,7 @@ class TrajectoryReport:
     max_um: dict[str, float]
     precomp_errors: dict[str, np.ndarray] = field(repr=False)
     precomp_max_um: dict[str, float]
-    precomp_settings: dict[str, tuple[int, float, int]] = field(default_factory=dict)
+    precomp_settings: dict[str, tuple[int, float, int, bool]] = field(default_factory=dict)
 
     @property
     def tracking_max_um(self) -> float:
@@ -284,17 +290,24 @@ def _fit_all(ids: Sequence[str], runs: list[SimulationResult], cfg: ReproduceCon
     return fitted, seconds
 
 
+def _setting(g: Sequence[Any]) -> tuple[int, float, int, bool]:
+    """``(iterations, gain, advance, inverse)`` of a grid entry (``inverse`` defaults to off)."""
+    return int(g[0]), float(g[1]), int(g[2]), bool(g[3]) if len(g) > 3 else False
+
+
 def _tune_precomp(pred: Predictor, refs: Sequence[Reference], axis: Axis, seed: int,
-                  grid: Sequence[tuple[int, float, int]]) -> tuple[int, float, int]:
-    """The pre-compensation setting with the smallest worst-case actual error on ``refs``."""
+                  grid: Sequence[Sequence[Any]]) -> tuple[int, float, int, bool]:
+    """The pre-compensation setting with the smallest worst-case actual error on ``refs``
+    (settings that need a transfer function are skipped for predictors without one)."""
+    settings = [_setting(g) for g in grid]
+    settings = [s for s in settings if not s[3] or hasattr(pred, "tf_")]
     scores = []
-    for it, gain, adv in grid:
+    for it, gain, adv, inv in settings:
         worst = max(simulate(axis, r, seed=seed + i, u_offset=precompensation_offset(
-            pred, r, iterations=it, gain=gain, advance=adv)).max_error
+            pred, r, iterations=it, gain=gain, advance=adv, inverse=inv)).max_error
             for i, r in enumerate(refs))
         scores.append(worst)
-    it, gain, adv = grid[int(np.argmin(scores))]
-    return int(it), float(gain), int(adv)
+    return settings[int(np.argmin(scores))]
 
 
 class _Known(Predictor):
@@ -323,7 +336,7 @@ class _Known(Predictor):
 
 def _report(name: str, ref: Reference, test: SimulationResult, predictors: dict[str, Predictor],
             test_axis: Axis, friction_source: Predictor | None, precomp_ids: Sequence[str],
-            tuned: dict[str, tuple[int, float, int]]) -> TrajectoryReport:
+            tuned: dict[str, tuple[int, float, int, bool]]) -> TrajectoryReport:
     pred_err = {pid: test.x_true - p.predict(ref) for pid, p in predictors.items()}
     max_um = {pid: float(np.max(np.abs(e)) * 1e6) for pid, e in pred_err.items()}
     if friction_source is not None and hasattr(friction_source, "v_break_"):
@@ -343,10 +356,10 @@ def _report(name: str, ref: Reference, test: SimulationResult, predictors: dict[
             off = precompensation_offset(predictors[pid], ref, inverse=True)
             pre_err[f"{pid} inverse"] = simulate(test_axis, ref, seed=test.seed,
                                                  u_offset=off).error
-        if pid in tuned and tuned[pid] != (1, 1.0, 0):
-            it, gain, adv = tuned[pid]
+        if pid in tuned and tuned[pid] not in ((1, 1.0, 0, False), (1, 1.0, 0, True)):
+            it, gain, adv, inv = tuned[pid]
             off = precompensation_offset(predictors[pid], ref, iterations=it, gain=gain,
-                                         advance=adv)
+                                         advance=adv, inverse=inv)
             pre_err[f"{pid} tuned"] = simulate(test_axis, ref, seed=test.seed,
                                                u_offset=off).error
             settings[f"{pid} tuned"] = tuned[pid]
@@ -400,8 +413,8 @@ def reproduce(config: ReproduceConfig | None = None) -> ReproduceResult:
     train_refs = [refs[n] for n in TRAJECTORIES]
     tuned = {pid: _tune_precomp(fitted[pid], train_refs, train_axis, cfg.train_seed + 50,
                                 cfg.precomp_grid) for pid in precomp_ids}
-    _log(cfg, "pre-compensation settings (iterations, gain, advance) chosen on the training "
-              f"references: {tuned}")
+    _log(cfg, "pre-compensation settings (iterations, gain, advance, inverse) chosen on the "
+              f"training references: {tuned}")
     reports = {n: _report(n, refs[n], test[n], fitted, test_axis, lstm, precomp_ids, tuned)
                for n in TRAJECTORIES}
     # the best registered predictor: largest worst-case TF / predictor ratio
@@ -495,8 +508,8 @@ def format_report(result: ReproduceResult) -> str:
         if key == "oracle inverse":
             label = "bound: the run's own error, model-inverse"
         if key.endswith(" tuned"):
-            it, gain, adv = ms.precomp_settings[key]
-            label = f"{key} ({it} it, gain {gain:g}, adv {adv})"
+            it, gain, adv, inv = ms.precomp_settings[key]
+            label = f"{key} ({it} it, gain {gain:g}, adv {adv}{', inverse' if inv else ''})"
         cut_m = 1 - ms.precomp_max_um[key] / ms.precomp_max_um["none"]
         cut_c = (1 - cu.precomp_max_um[key] / cu.precomp_max_um["none"]
                  if key in cu.precomp_max_um else float("nan"))
