@@ -134,10 +134,11 @@ def draw_case(kind: str, seed: int) -> tuple[Axis, Reference, float]:
     raise RuntimeError(f"{kind} seed {seed}: no visible effect in 50 draws")
 
 
-# Known miss, kept visible: weak cogging (0.34 m/s^2 equivalent, 3.3 mm period) is not
-# separated from Coulomb friction from the position alone (rms still cut 2.6x). strict: the
-# day it passes, the marker must go.
-_KNOWN_MISSES = {("cogging", 12): "weak cogging not detected from position only (issue 5 note)"}
+# Known misses, kept visible as strict xfails (the day one passes, its marker must go). None
+# at present: cogging/12 (0.34 m/s^2 ripple, 3.3 mm period) was one until every step fitted
+# cogging for real from several periods of the residual's spectrum (its linearised screen is
+# unreliable through stick-slip). tests/sysid/sweep_undeclared.py runs a wider sweep.
+_KNOWN_MISSES: dict[tuple[str, int], str] = {}
 CASES = [pytest.param(kind, seed, marks=pytest.mark.xfail(strict=True,
                                                           reason=_KNOWN_MISSES[(kind, seed)]))
          if (kind, seed) in _KNOWN_MISSES else (kind, seed)
@@ -145,8 +146,8 @@ CASES = [pytest.param(kind, seed, marks=pytest.mark.xfail(strict=True,
          for seed in (11, 12)]
 
 
-@pytest.mark.parametrize(("kind", "seed"), CASES)
-def test_undeclared_effect_is_found(kind: str, seed: int) -> None:
+def check_case(kind: str, seed: int) -> tuple[list[str], dict[str, object]]:
+    """Diagnose one case; the failures (empty when it passes) and the report."""
     axis, ref, floor = draw_case(kind, seed)
     res = simulate(axis, ref, seed=seed)
     run = validate_arrays(res.t, res.x_ref, res.x)
@@ -154,13 +155,22 @@ def test_undeclared_effect_is_found(kind: str, seed: int) -> None:
     effects = set(out["effects"])
     present = EFFECT_NAME[kind]
     allowed = FRICTION | ({present} if present else set())
-    assert not effects - allowed, f"{kind}/{seed}: named absent effects {effects - allowed}"
-    if present is not None:
-        assert present in effects, f"{kind}/{seed}: missed {present}, found {effects}"
+    failures = []
+    if effects - allowed:
+        failures.append(f"{kind}/{seed}: named absent effects {effects - allowed}")
+    if present is not None and present not in effects:
+        failures.append(f"{kind}/{seed}: missed {present}, found {effects}")
     pos = out["position"]
-    assert pos["rms_after"] <= max(0.5 * pos["rms_before"], 1.5 * floor), (
-        f"{kind}/{seed}: rms {pos['rms_before']:.3g} -> {pos['rms_after']:.3g} m, "
-        f"floor {floor:.3g} m")
+    if pos["rms_after"] > max(0.5 * pos["rms_before"], 1.5 * floor):
+        failures.append(f"{kind}/{seed}: rms {pos['rms_before']:.3g} -> "
+                        f"{pos['rms_after']:.3g} m, floor {floor:.3g} m")
+    return failures, out
+
+
+@pytest.mark.parametrize(("kind", "seed"), CASES)
+def test_undeclared_effect_is_found(kind: str, seed: int) -> None:
+    failures, _ = check_case(kind, seed)
+    assert not failures, "; ".join(failures)
 
 
 def test_a_linear_axis_gets_no_effect() -> None:

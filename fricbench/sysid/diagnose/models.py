@@ -26,7 +26,11 @@ from fricbench.sysid.diagnose.controllers import ArxController, CascadeControlle
 from fricbench.sysid.diagnose.effects import IDIM_NONLINEAR, free_indices, idim_columns
 from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.diagnose.signals import decimate_columns, period_candidates
+from fricbench.sysid.diagnose.signals import (
+    MIN_PERIODS_IN_STROKE,
+    decimate_columns,
+    period_candidates,
+)
 
 __all__ = ["GreyBox", "simulate_position", "simulate_models", "Param", "position_params",
            "PositionFit", "InverseDynamics", "cascade_effort", "Bounds", "prediction_floor"]
@@ -526,7 +530,7 @@ class InverseDynamics:
             lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
                 np.abs(pr.vf[np.abs(pr.vf) > 0.05 * pr.v_max])) if np.any(
                 np.abs(pr.vf) > 0.05 * pr.v_max) else 1e-4))
-            hi = pr.stroke / 3.0
+            hi = pr.stroke / MIN_PERIODS_IN_STROKE
             if start:
                 base = tuple(e for e in effects if e != "cogging")
                 pb, _ = self._solve(base, p, rows)

@@ -54,7 +54,7 @@ from fricbench.sysid.diagnose.models import (
     simulate_position,
 )
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.diagnose.signals import period_candidates
+from fricbench.sysid.diagnose.signals import MIN_PERIODS_IN_STROKE, period_candidates
 
 __all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
 
@@ -458,7 +458,8 @@ def _probes(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray
         periods = []
         for sgn in (1.0, -1.0):
             sel = moving & (np.sign(v) == sgn)
-            periods += period_candidates(prep.xf, r, sel, lo, b.stroke / 3.0, n_best=2)
+            periods += period_candidates(prep.xf, r, sel, lo, b.stroke / MIN_PERIODS_IN_STROKE,
+                                          n_best=2)
         uniq: list[float] = []
         for per in periods:
             if all(abs(per / q - 1.0) > 0.02 for q in uniq):
@@ -523,9 +524,36 @@ def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.nd
 
 _Variant = tuple[float, _Probe, np.ndarray]
 
-# starts tried per candidate in the real fits: the Stribeck velocity makes the error surface
-# multimodal (periods come from the inverse dynamics of the virtual effort, accurately)
-_N_STARTS = {"stribeck_friction": 2}
+# starts tried per candidate in the real fits: the Stribeck velocity and a spatial period make
+# the error surface multimodal. The periods of the screened variants (peaks of the residual's
+# spectrum against position, the inverse dynamics of the virtual effort) are distinct starts:
+# the linearised screen ranks them poorly (a ripple's response through a loop with stiction
+# is far from linear), and the fit only refines a period within a few per cent
+_N_STARTS = {"stribeck_friction": 2, "cogging": 3}
+
+# candidates fitted for real at every step, whatever their linearised screen (see above)
+_ALWAYS_FITTED = ("cogging",)
+
+
+def _fit_starts(variants: list[_Variant], name: str, b: Bounds) -> list[GreyBox]:
+    """Starts of the real fits of a force effect: its best screened variants.
+
+    For a periodic effect, variants whose periods lie within 2 % of a better one's are
+    skipped (the fit refines the period that far): the starts are distinct periods.
+    """
+    out: list[GreyBox] = []
+    periods: list[float] = []
+    for v in variants:
+        st = _variant_start(v, name, b)
+        if name == "cogging":
+            per = float(st.plant[CL.I_COGP])
+            if any(abs(per / q - 1.0) <= 0.02 for q in periods):
+                continue
+            periods.append(per)
+        out.append(st)
+        if len(out) >= _N_STARTS.get(name, 1):
+            break
+    return out
 
 
 def _variant_start(variant: _Variant, name: str, b: Bounds) -> GreyBox:
@@ -655,11 +683,13 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # least reliable (stiction is far from linear): fit it for real while it is missing;
         # so is a candidate that was significant at the previous step but lost to the winner
         # (friction and backlash often come close: both leave a direction-dependent error)
+        # and a periodic force, whose screen is no better (its linearised response to a
+        # ripple misses how the ripple moves the stops of a stick-slip motion)
         chosen += [kv for kv in ranked[n_confirm:]
-                   if kv[0] == "coulomb_friction" or kv[0] in runners_up]
+                   if kv[0] in ("coulomb_friction", *_ALWAYS_FITTED) or kv[0] in runners_up]
         for name, (ratio, _, _) in chosen:
             if (ratio >= 1.0 and len(steps) > 1 and name != "coulomb_friction"
-                    and name not in runners_up):
+                    and name not in runners_up and name not in _ALWAYS_FITTED):
                 continue
             heldout = 0.0
             fits: dict[int, PositionFitResult] = {}
@@ -668,8 +698,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                 if EFFECTS[name].kind == "output":
                     starts = [_output_start(m, name, prep, b, cur.y, train)]
                 else:
-                    starts = [_variant_start(v, name, b)
-                              for v in variants[name][: _N_STARTS.get(name, 1)]]
+                    starts = _fit_starts(variants[name], name, b)
                 res = min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
                 fits[k] = res
                 heldout += _position_sse(res.y, prep, ~train)

@@ -11,10 +11,14 @@ filtering does not bias a model that is linear in its parameters.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
+from scipy import optimize, signal
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
-           "block_folds", "reversal_mask", "period_candidates"]
+           "block_folds", "reversal_mask", "period_candidates", "MIN_PERIODS_IN_STROKE"]
+
+MIN_PERIODS_IN_STROKE = 2.0
+"""Fewest periods of a periodic force (cogging) the stroke must cover for it to be searched:
+two periods tell a ripple from a friction level that changes along the stroke."""
 
 
 def filtered_derivatives(x: np.ndarray, ts: float, cutoff_hz: float,
@@ -178,8 +182,8 @@ def period_candidates(x: np.ndarray, r: np.ndarray, moving: np.ndarray, p_min: f
 
     The residual of the moving samples is averaged in position bins a quarter of ``p_min``
     wide; the periodogram of that position series (zero-padded FFT) gives the periods of the
-    ``n_best`` highest separated peaks between ``p_min`` and ``p_max``. The fits then refine
-    them continuously.
+    ``n_best`` highest separated peaks between ``p_min`` and ``p_max``, each refined
+    continuously between the FFT's grid points. The fits then refine them further.
     """
     xs, rs = x[moving], r[moving]
     if xs.size < 50 or p_max <= p_min:
@@ -206,10 +210,26 @@ def period_candidates(x: np.ndarray, r: np.ndarray, moving: np.ndarray, p_min: f
     peaks.sort(key=lambda i: -power[i])
     picked: list[float] = []
     df = 2.0 / (n_bins * width)
+    step = freqs[1] - freqs[0]
+    centres = (np.arange(n_bins) + 0.5) * width
     for i in peaks:
-        f = freqs[i]
+        f = _refine_peak(series, centres, freqs[i], step)
         if all(abs(f - 1.0 / p) > df for p in picked):
             picked.append(1.0 / f)
         if len(picked) >= n_best:
             break
     return picked
+
+
+def _refine_peak(series: np.ndarray, centres: np.ndarray, f0: float, step: float) -> float:
+    """Frequency (1/m) of the periodogram's maximum within one FFT step of ``f0``.
+
+    The zero-padded FFT samples the periodogram on a grid; between its points the power
+    ``|sum_j s_j exp(-2 pi i f c_j)|^2`` is maximised continuously (golden section).
+    """
+    def neg_power(f: float) -> float:
+        return -float(np.abs(np.dot(series, np.exp(-2j * np.pi * f * centres))) ** 2)
+
+    res = optimize.minimize_scalar(neg_power, bounds=(f0 - step, f0 + step), method="bounded",
+                                   options={"xatol": 1e-4 * step})
+    return float(res.x) if res.fun <= neg_power(f0) else float(f0)
