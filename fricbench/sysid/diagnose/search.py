@@ -12,8 +12,9 @@ size, refits every parameter with it (grey box) and repeats.
   (finite-difference columns of each candidate at a probe size or at a start found by the
   inverse dynamics of the controller's virtual effort, next to the Jacobian of the current
   parameters) ranks the candidates; the best few - and Coulomb friction while it is missing,
-  and the runners-up of the previous step - are then fitted for real (nonlinear output
-  error) on each fold. The loop gains are hardly identifiable from the position alone (with
+  cogging (from several periods of the residual's spectrum against position), and the
+  runners-up of the previous step - are then fitted for real (nonlinear output error) on
+  each fold. The loop gains are hardly identifiable from the position alone (with
   feedforward the reference is tracked whatever they are), so while a candidate is judged
   they may only move by a factor ``EVAL_BOX`` and the integral action may not vanish: an
   effect must explain the residual through the loop as it is, not by changing the loop (the
