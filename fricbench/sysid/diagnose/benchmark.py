@@ -1,0 +1,119 @@
+"""Wall-clock time of the diagnosis on a long run (issue 5: 40,000 samples in under 30 s).
+
+``python -m fricbench.sysid.diagnose.benchmark [--samples 40000] [--effort] [--seed 0]``
+simulates a run of the default axis (Stribeck friction, 0.1 um noise, 20 nm encoder) with a
+cogging ripple on a seeded random mixture of moves, reversals and sine blocks, diagnoses it
+and prints the number of samples, the seconds and the samples per second, with the load
+average of the machine (the time depends on what else runs). A short run is diagnosed first
+so that the numba kernels are compiled (or loaded from their cache) before the timing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from fricbench.sysid.io import RunData
+
+__all__ = ["BenchmarkResult", "benchmark_run", "time_diagnose", "main"]
+
+
+@dataclass(frozen=True)
+class BenchmarkResult:
+    """One timed diagnosis.
+
+    Attributes
+    ----------
+    samples : int
+        Samples of the run.
+    seconds : float
+        Wall time of :func:`~fricbench.sysid.diagnose.diagnose`, s.
+    mode : str
+        ``"position"`` (no effort column) or ``"effort"``.
+    effects : tuple of str
+        Effects found.
+    load_average : tuple of float
+        1, 5 and 15 minute load averages after the run.
+    cpus : int
+        Logical CPUs of the machine.
+    """
+
+    samples: int
+    seconds: float
+    mode: str
+    effects: tuple[str, ...]
+    load_average: tuple[float, float, float]
+    cpus: int
+
+    @property
+    def samples_per_s(self) -> float:
+        """Throughput, samples/s."""
+        return self.samples / max(self.seconds, 1e-12)
+
+
+def benchmark_run(samples: int = 40_000, *, effort: bool = False, seed: int = 0) -> RunData:
+    """The simulated run the benchmark diagnoses, ``samples`` samples long."""
+    from fricbench.axis import Axis, simulate
+    from fricbench.sysid.io import validate_arrays
+    from fricbench.trajectories.random_mix import random_mixture
+
+    if not isinstance(samples, int) or samples < 1000:
+        raise ValueError(f"samples={samples!r}: expected an int >= 1000")
+    axis = Axis().with_effects(cogging_amplitude=120.0, cogging_period=0.004,
+                               noise_std=1e-7, quantization=2e-8)
+    ts = axis.controller.ts
+    ref = random_mixture(seed=seed, duration=samples * ts, ts=ts)
+    res = simulate(axis, ref, seed=seed)
+    n = min(samples, res.t.shape[0])
+    return validate_arrays(res.t[:n], res.x_ref[:n], res.x[:n], res.u[:n] if effort else None)
+
+
+def time_diagnose(samples: int = 40_000, *, effort: bool = False, seed: int = 0,
+                  warm_up: bool = True) -> BenchmarkResult:
+    """Diagnose :func:`benchmark_run` and time it (wall clock)."""
+    from fricbench.sysid.diagnose.diagnosis import diagnose
+
+    if warm_up:
+        diagnose(benchmark_run(2000, effort=effort, seed=seed + 1))
+    run = benchmark_run(samples, effort=effort, seed=seed)
+    t0 = time.perf_counter()
+    result = diagnose(run)
+    seconds = time.perf_counter() - t0
+    return BenchmarkResult(run.n_samples, seconds, result.mode, tuple(result.effects),
+                           os.getloadavg(), os.cpu_count() or 1)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command line: print samples, seconds and samples/s of one timed diagnosis."""
+    ap = argparse.ArgumentParser(prog="python -m fricbench.sysid.diagnose.benchmark",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=40_000, help="run length (default 40000)")
+    ap.add_argument("--effort", action="store_true", help="give diagnose the effort column")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the reference and noise")
+    ap.add_argument("--no-warm-up", action="store_true",
+                    help="time the first diagnosis too (includes numba compilation)")
+    args = ap.parse_args(argv)
+    try:
+        r = time_diagnose(args.samples, effort=args.effort, seed=args.seed,
+                          warm_up=not args.no_warm_up)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"samples: {r.samples}")
+    print(f"mode: {r.mode}")
+    print(f"effects found: {', '.join(r.effects) or 'none'}")
+    print(f"seconds: {r.seconds:.2f}")
+    print(f"samples/s: {r.samples_per_s:.0f}")
+    la = r.load_average
+    print(f"load average: {la[0]:.2f} {la[1]:.2f} {la[2]:.2f} on {r.cpus} cpus")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
