@@ -21,6 +21,7 @@ bench: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check fricbench tests examples
+	$(BIN)/mypy fricbench
 	$(BIN)/python -m pytest -n 2 -q tests
 
 perf: $(STAMP)

@@ -95,15 +95,15 @@ class AxisBatch:
             At the first non-finite or runaway state, naming the axis, time and likely cause.
         """
         shape = xr.shape
-        zeros = None
-        if u_force is None or u_off is None or noise is None:
-            zeros = np.zeros(shape)
+        zeros = np.zeros(shape) if u_force is None or u_off is None or noise is None \
+            else xr[:0]
         if out is None:
-            out = tuple(np.empty(shape) for _ in range(4))
+            out = (np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape))
         K.run_kernel(self.P, self.S, xr, vr, ar,
                      zeros if u_force is None else u_force,
                      zeros if u_off is None else u_off,
-                     zeros if noise is None else noise, out, self.status)
+                     zeros if noise is None else noise,
+                     (out[0], out[1], out[2], out[3]), self.status)
         if self.status.any():
             bad = int(np.flatnonzero(self.status)[0])
             what = "non-finite" if self.status[bad] == K.STATUS_NONFINITE else "runaway"

@@ -30,7 +30,7 @@ def _env_rate(env_id: str, steps: int, repeats: int) -> float:
     import gymnasium as gym
 
     env = gym.make(env_id)
-    zero = np.zeros(env.action_space.shape, dtype=np.float32)
+    zero = np.zeros(env.action_space.shape or (), dtype=np.float32)
     env.reset(seed=0)
     env.step(zero)
 

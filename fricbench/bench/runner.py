@@ -74,6 +74,8 @@ def bench_env(env_id: str, compensator: Compensator) -> ServoAxisEnv:
 
 def _rehearser(env: ServoAxisEnv) -> Callable[[np.ndarray, int], SimulationResult]:
     axis, ref, mode = env.current_axis, env.reference, env.task.action
+    if ref is None:
+        raise RuntimeError("reset the env before building its rehearser")
 
     def rehearse(u: np.ndarray, seed: int) -> SimulationResult:
         """Run the episode's reference on the episode's axis with feedforward ``u``."""

@@ -116,7 +116,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         self._scales = obs_scales(self.task.observation)
         self._rows = np.arange(d, dtype=np.int64)
         self._kvec = np.zeros(d, dtype=np.int64)
-        self._out = tuple(np.empty((d, 1)) for _ in range(4))
+        self._out = (np.empty((d, 1)), np.empty((d, 1)), np.empty((d, 1)), np.empty((d, 1)))
         self._act = np.zeros(d)
         self._u_force = np.zeros((d, 1))
         self._u_off = np.zeros((d, 1))
@@ -247,7 +247,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         if self.render_mode is None:
             return
         k = self._k
-        self._history["t"].append(k * self.ts)
+        self._history["t"].append(np.asarray(k * self.ts))
         self._history["x_ref"].append(self._xr[:, k].copy())
         self._history["x"].append(self._batch.position.copy())
         self._history["error"].append(self._xr[:, k] - self._batch.true_position)

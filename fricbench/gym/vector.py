@@ -88,13 +88,14 @@ class ServoAxisVectorEnv(VectorEnv):
         self._autoreset = np.zeros(n, dtype=bool)
         self._work = np.zeros((10, n, 1))
         self._no_noise = np.zeros(n)
-        self._np_random = np.random.default_rng(seed)
+        # one generator for every draw; Gymnasium's ``np_random`` property shows the same one
+        self._rng = self._np_random = np.random.default_rng(seed)
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         idx = np.flatnonzero(rows)
         if idx.size == 0:
             return
-        rng = self._np_random
+        rng = self._rng
         self._ref_id[idx] = rng.integers(0, self._X.shape[0], idx.size)
         self._k[idx] = 0
         self._prev_action[idx] = 0.0
@@ -110,7 +111,7 @@ class ServoAxisVectorEnv(VectorEnv):
         if isinstance(seed, list):
             seed = seed[0] if seed else None
         if seed is not None:
-            self._np_random = np.random.default_rng(seed)
+            self._rng = self._np_random = np.random.default_rng(seed)
         if options:
             raise ValueError(f"reset options {sorted(options)}: the vector env takes none")
         self._reset_rows(np.ones(self.num_envs, dtype=bool))
@@ -127,7 +128,7 @@ class ServoAxisVectorEnv(VectorEnv):
         hold = self._autoreset
         if hold.any():
             self._reset_rows(hold)
-        draws = self._np_random.standard_normal(self.num_envs) if self.axis.needs_noise \
+        draws = self._rng.standard_normal(self.num_envs) if self.axis.needs_noise \
             else self._no_noise
         obs = np.empty((self.num_envs, self._nf), dtype=np.float32)
         rewards = np.empty(self.num_envs)
