@@ -75,11 +75,15 @@ def _scale(p: np.ndarray, x: float) -> float:
 
 
 @numba.njit(cache=True, inline="always")
+def _coulomb(p: np.ndarray, sigma: float) -> float:
+    """Coulomb level in direction ``sigma`` (``fc +- dfc / 2``, never negative)."""
+    return max(p[I_FC] + 0.5 * sigma * p[I_DFC], 0.0)
+
+
+@numba.njit(cache=True, inline="always")
 def _level(p: np.ndarray, speed: float, sigma: float, scale: float) -> float:
     """Sliding friction level (without viscous part) in direction ``sigma``, N."""
-    fc = p[I_FC] + 0.5 * sigma * p[I_DFC]
-    if fc < 0.0:
-        fc = 0.0
+    fc = _coulomb(p, sigma)
     if p[I_FS] == 0.0:
         return scale * fc  # no Stribeck term: skip the exponential
     fs = fc + p[I_FS]
@@ -90,9 +94,7 @@ def _level(p: np.ndarray, speed: float, sigma: float, scale: float) -> float:
 def _level_taylor(p: np.ndarray, speed: float, sigma: float,
                   scale: float) -> tuple[float, float, float]:
     """:func:`_level` with its first and second derivatives in ``speed`` (one ``exp``)."""
-    fc = p[I_FC] + 0.5 * sigma * p[I_DFC]
-    if fc < 0.0:
-        fc = 0.0
+    fc = _coulomb(p, sigma)
     if p[I_FS] == 0.0 or p[I_VS] <= 0.0:
         return scale * fc, 0.0, 0.0
     g, dg, d2g = stribeck_level_taylor(speed, fc, fc + p[I_FS], 1.0 / p[I_VS], 2.0)
@@ -155,9 +157,7 @@ def _substep(p: np.ndarray, x: float, v: float, force: float, h: float, inv_pos:
     inv_meff = inv_pos if mom > 0.0 else inv_neg  # 1 / (M + h B_dir), precomputed
     scale = _scale(p, x)
     # Kikuuwe: stick when |M v + h F| <= h F_s, the level at rest g(0) = s(x) (fc + fs)
-    fc_dir = p[I_FC] + 0.5 * sigma * p[I_DFC]
-    if fc_dir < 0.0:
-        fc_dir = 0.0
+    fc_dir = _coulomb(p, sigma)
     if abs(mom) <= h * scale * (fc_dir + p[I_FS]):
         v_new = 0.0
     else:
