@@ -7,18 +7,25 @@ import pytest
 import torch
 
 from fricbench.predictors.features import feature_names, reference_features
-from fricbench.predictors.lstm import TFLSTMPredictor, _window_starts
+from fricbench.predictors.lstm import TFLSTMPredictor, _windows
 from fricbench.trajectories import make_trajectory
 
 
-def test_window_starts_tile_the_scored_part_once() -> None:
-    for n, window, burn in [(1000, 300, 100), (300, 300, 100), (1234, 200, 0), (999, 250, 249)]:
-        covered = np.zeros(n, dtype=int)
-        for s in _window_starts(n, window, burn):
-            assert 0 <= s and s + window <= n
-            covered[s + burn:s + window] += 1
-        covered[:burn] += 1  # the first window's warm-up is the padded rest
-        assert covered.min() >= 1
+@pytest.mark.parametrize(("n", "window", "burn", "lead"),
+                         [(1000, 300, 100, 10), (300, 300, 100, 10), (1234, 200, 0, 0),
+                          (999, 250, 249, 5), (1300, 300, 100, 100), (120, 300, 100, 10),
+                          (1100, 300, 100, 0)])
+def test_windows_tile_the_record_exactly_once(n: int, window: int, burn: int,
+                                              lead: int) -> None:
+    cuts = _windows(n, window, burn, lead)
+    assert cuts[0] == (0, lead)  # the record's start is the first window's start
+    covered = np.zeros(n, dtype=int)
+    for s, first in cuts:
+        length = min(n, window)
+        assert 0 <= s and s + length <= n
+        assert first >= (lead if s == 0 else burn)  # later windows warm up first
+        covered[s + first:s + length] += 1
+    assert np.all(covered[lead:] == 1) and np.all(covered[:lead] == 0)
 
 
 def test_physical_features() -> None:
@@ -63,6 +70,10 @@ def test_training_prints_progress_and_restores_torch_settings(small_runs, capsys
         ({"validation_fraction": 0.9}, "validation_fraction"),
         ({"n_poles": 2, "n_zeros": 2}, "n_zeros"),
         ({"learning_rate": -1.0}, "learning_rate"),
+        ({"lead": 300, "window": 300, "burn_in": 100}, "lead"),
+        ({"n_init": 0}, "n_init"),
+        ({"screen_epochs": 0}, "screen_epochs"),
+        ({"n_jobs": 0}, "n_jobs"),
     ],
 )
 def test_constructor_rejects_bad_arguments(kwargs: dict, match: str) -> None:
@@ -70,3 +81,36 @@ def test_constructor_rejects_bad_arguments(kwargs: dict, match: str) -> None:
         TFLSTMPredictor(**kwargs)
     with pytest.raises(TypeError):
         TFLSTMPredictor(hiden_size=8)  # type: ignore[call-arg]  # typos are not swallowed
+
+
+def test_candidates_are_screened_and_threads_do_not_change_the_result(small_runs,
+                                                                       capsys) -> None:
+    kw = {"max_epochs": 4, "hidden_size": 4, "window": 300, "burn_in": 100, "verbose": 1,
+          "n_init": 3, "screen_epochs": 2}
+    one = TFLSTMPredictor(n_jobs=1, **kw).fit(small_runs)
+    out = capsys.readouterr().out
+    assert "candidate 3/3" in out and "screening (2 epochs)" in out
+    assert len(one.candidate_val_losses_) == 3
+    # the winner (smallest screening loss) carried on from where it stopped
+    assert 2 <= one.n_epochs_ <= 4
+    assert min(h[2] for h in one.history_[:2]) == pytest.approx(min(one.candidate_val_losses_))
+    two = TFLSTMPredictor(n_jobs=2, **kw).fit(small_runs)
+    assert two.candidate_val_losses_ == one.candidate_val_losses_
+    ref = make_trajectory("reversal_sine", cycles=1)
+    np.testing.assert_array_equal(one.predict(ref), two.predict(ref))
+
+
+def test_first_window_starts_at_the_record_start(small_runs) -> None:
+    # lead=0: the network's state is fresh exactly at the record's first sample, so a
+    # prediction of a reference does not depend on rest samples a caller might put in front
+    # of the record, only on the record itself
+    pred = TFLSTMPredictor(max_epochs=1, hidden_size=4, window=300, burn_in=100, lead=0,
+                           n_init=1, verbose=0).fit(small_runs)
+    ref = make_trajectory("reversal_sine", cycles=1)
+    y = pred.predict_friction_error(np.asarray(ref.x, dtype=float))
+    assert y.shape == (ref.n_samples,) and np.all(np.isfinite(y))
+    # the first window's output equals a network run on the first window alone
+    feats = pred._inputs(np.asarray(ref.x, dtype=float), ref.ts)
+    with torch.no_grad():
+        first = pred.net_(torch.from_numpy(feats[None, :300])).double().numpy()[0]
+    np.testing.assert_allclose(y[:300], first * pred.target_scale_, rtol=1e-6, atol=1e-12)
