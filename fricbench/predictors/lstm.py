@@ -102,8 +102,8 @@ def _windows(n: int, window: int, burn_in: int, lead: int) -> list[tuple[int, in
     first sample (the network state is fresh there, as the axis's controller state is at the
     start of a run) and is scored from ``lead`` on; every later window repeats ``burn_in``
     samples of warm-up, so the scored parts tile ``[lead, n)`` exactly once (the last window is
-    aligned to the end and may re-score a few samples). A record shorter than ``window`` is
-    one window of its own length.
+    aligned to the end and scored from where the previous one stopped). A record shorter than
+    ``window`` is one window of its own length.
     """
     if n <= window:
         return [(0, lead)]
@@ -119,7 +119,7 @@ def _windows(n: int, window: int, burn_in: int, lead: int) -> list[tuple[int, in
 
 @dataclass(frozen=True)
 class _Data:
-    """Training and validation windows: inputs, targets and per-sample loss weights."""
+    """Training and validation windows: inputs, targets and scored-sample masks."""
 
     x_tr: torch.Tensor
     y_tr: torch.Tensor
@@ -310,9 +310,6 @@ class TFLSTMPredictor(Predictor):
         check_int("screen_epochs", screen_epochs, 1)
         check_int("n_jobs", n_jobs, 1, 256)
         check_int("verbose", verbose, 0)
-        self.n_init = n_init
-        self.screen_epochs = screen_epochs
-        self.n_jobs = n_jobs
         self.features = features
         self.target = target
         self.cell = cell
@@ -333,6 +330,9 @@ class TFLSTMPredictor(Predictor):
         self.dc_gain = dc_gain
         self.window_pre = window_pre
         self.window_post = window_post
+        self.n_init = n_init
+        self.screen_epochs = screen_epochs
+        self.n_jobs = n_jobs
         self.verbose = verbose
 
     # -- helpers --------------------------------------------------------------------------------
@@ -342,8 +342,8 @@ class TFLSTMPredictor(Predictor):
 
     def _candidate_seeds(self) -> list[int]:
         """Torch seeds of the ``n_init`` candidates: ``seed`` itself, then derived ones."""
-        extra = np.random.SeedSequence(self.seed).generate_state(max(self.n_init - 1, 1))
-        return [self.seed, *(int(v) for v in extra[:self.n_init - 1])]
+        extra = np.random.SeedSequence(self.seed).generate_state(self.n_init - 1)
+        return [self.seed, *(int(v) for v in extra)]
 
     def _inputs(self, x_ref: np.ndarray, ts: float) -> np.ndarray:
         """Normalised features of ``x_ref`` preceded by ``lead`` samples at rest."""
@@ -421,15 +421,11 @@ class TFLSTMPredictor(Predictor):
             cands = [_Candidate(self, seed, data) for seed in self._candidate_seeds()]
             if len(cands) > 1:
                 screen = min(self.screen_epochs, self.max_epochs)
-                jobs = [(c, f"candidate {i + 1}/{len(cands)} ") for i, c in enumerate(cands)]
-                if self.n_jobs > 1:
-                    # candidates are independent (own weights, optimiser, batch generator):
-                    # one Python thread each, torch ops release the GIL
-                    with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:
-                        list(pool.map(lambda job: job[0].train(screen, t0, job[1]), jobs))
-                else:
-                    for c, label in jobs:
-                        c.train(screen, t0, label)
+                # candidates are independent (own weights, optimiser, batch generator): one
+                # Python thread each, torch ops release the GIL
+                with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:
+                    list(pool.map(lambda i: cands[i].train(
+                        screen, t0, f"candidate {i + 1}/{len(cands)} "), range(len(cands))))
                 scores = [c.best_val for c in cands]
                 self.candidate_val_losses_ = scores
                 win = int(np.argmin(scores))
