@@ -14,6 +14,8 @@ Registered ids:
                   disturbance path (uses the true loop)
 ``tf+lstm-phys``  TF + LSTM with physical stick-slip features (direction, time and
                   displacement since the turning point, ``a0``, time to the next one)
+``greybox``       the servo loop itself: cascade controller, unit mass and Stribeck
+                  friction with stiction, all identified from the runs and run free
 ================  =====================================================================
 """
 
@@ -45,6 +47,9 @@ predictor_registry.register("tf+stribeck", "fricbench.predictors.stribeck:TFStri
                                         "loop's disturbance path")
 predictor_registry.register("tf+lstm-phys", _LSTM, kwargs={"features": "physical"},
                             description="TF + LSTM on physical stick-slip features")
+predictor_registry.register("greybox", "fricbench.predictors.greybox:GreyBoxPredictor",
+                            description="identified closed loop (cascade, mass, Stribeck "
+                                        "friction with stiction), run free on the reference")
 
 
 def make_predictor(id: str, **params: Any) -> Predictor:

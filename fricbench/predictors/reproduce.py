@@ -92,7 +92,8 @@ class ReproduceConfig:
     test_noise_std: float = 0.05e-6
     train_seed: int = 1
     test_seed: int = 101
-    predictors: tuple[str, ...] = ("tf", "tf+lstm", "tf+stribeck", "tf+lstm-phys")
+    predictors: tuple[str, ...] = ("tf", "tf+lstm", "tf+stribeck", "tf+lstm-phys",
+                                   "greybox")
     predictor_params: dict[str, Any] = field(default_factory=dict)
     precomp_grid: tuple[tuple[Any, ...], ...] = (
         (1, 1.0, 0), (1, 0.7, 0), (1, 1.0, 3), (1, 0.85, 3), (1, 0.7, 3), (1, 0.5, 3),

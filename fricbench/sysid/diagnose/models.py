@@ -22,7 +22,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
+from fricbench.sysid.diagnose.controllers import ArxController, CascadeController, LoopInputs
 from fricbench.sysid.diagnose.effects import IDIM_NONLINEAR, free_indices, idim_columns
 from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.prepared import Prepared
@@ -32,8 +32,9 @@ from fricbench.sysid.diagnose.signals import (
     period_candidates,
 )
 
-__all__ = ["GreyBox", "simulate_position", "simulate_models", "Param", "position_params",
-           "PositionFit", "InverseDynamics", "cascade_effort", "Bounds", "prediction_floor"]
+__all__ = ["GreyBox", "simulate_position", "simulate_models", "simulate_inputs", "Param",
+           "position_params", "PositionFit", "JointPositionFit", "InverseDynamics",
+           "cascade_effort", "Bounds", "prediction_floor"]
 
 KI_MIN_RATIO = 0.02
 """Smallest integral rate of the cascade model, as a fraction of the velocity-loop gain."""
@@ -83,7 +84,14 @@ def simulate_models(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | N
     ``noise`` (m) and ``quant`` (m) add sensor noise and quantisation (for the noise floor).
     Returns ``(y, u, status)`` with shapes (N, K), (N, K), (N,).
     """
-    inp = prep.inputs
+    return simulate_inputs(models, prep.inputs, prep.n_sub, w, noise, quant)
+
+
+def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
+                    w: np.ndarray | None = None, noise: np.ndarray | None = None,
+                    quant: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`simulate_models` on bare loop inputs (a reference without a measured run)."""
+    n = int(inp.t.shape[0])
     cache: dict[object, tuple] = {}
     parts = []
     for m in models:
@@ -97,7 +105,7 @@ def simulate_models(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | N
     n_rows = len(models)
     A = np.zeros((n_rows, na))
     C = np.zeros((n_rows, nc))
-    R = np.empty((n_rows, prep.n))
+    R = np.empty((n_rows, n))
     U0 = np.zeros((n_rows, na))
     y_init = inp.history(max(nc, 1))
     for i, (a, c, r, u0, _) in enumerate(parts):
@@ -106,7 +114,7 @@ def simulate_models(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | N
         R[i] = r
         U0[i, : u0.shape[0]] = u0
     P = np.stack([m.plant for m in models])
-    return CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=prep.n_sub, x0=inp.x0,
+    return CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
                              v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
                              quant=quant)
 
@@ -425,6 +433,53 @@ class PositionFit:
         if y is None:
             y = simulate_position(fitted, self.prep, self.w)[0]
         return PositionFitResult(fitted, y, sol.cost, sol.n_iter, sol.jac_rows)
+
+
+class JointPositionFit:
+    """Output-error least squares of one model on several runs of the same axis.
+
+    The residuals of every run (each scaled by its own noise floor) are stacked, so a
+    parameter set must explain all runs at once; each run starts from its own initial state.
+
+    Parameters
+    ----------
+    preps : sequence of Prepared
+    params : list of Param
+        Free parameters.
+    """
+
+    def __init__(self, preps: Sequence[Prepared], params: list[Param]) -> None:
+        if not preps:
+            raise ValueError("preps is empty: expected at least one prepared run")
+        self.preps = list(preps)
+        self.params = params
+
+    def residuals(self, models: Sequence[GreyBox]) -> np.ndarray:
+        """Stacked scaled residuals of each model, shape (len(models), total samples)."""
+        parts = []
+        for prep in self.preps:
+            ys, _, _ = simulate_models(models, prep)
+            r = (prep.x[None, :] - ys) / max(prep.noise.rms, 1e-9)
+            parts.append(np.where(np.isfinite(r), r, _DIVERGED))
+        return np.concatenate(parts, axis=1)
+
+    def run(self, model: GreyBox, max_iter: int = 15) -> tuple[GreyBox, float]:
+        """Fit from ``model``'s current values; returns the fitted model and its cost."""
+        if not self.params:
+            return model, 0.5 * sumsq(self.residuals([model])[0])
+        theta0 = np.array([p.to_theta(p.get(model)) for p in self.params])
+        lo = np.array([p.bounds()[0] for p in self.params])
+        hi = np.array([p.bounds()[1] for p in self.params])
+        steps = np.minimum(np.where([p.log for p in self.params], 2e-3, 1e-3), 0.05 * (hi - lo))
+
+        def models_at(thetas: np.ndarray) -> list[GreyBox]:
+            return [_with_values(model, self.params, [p.from_theta(t) for p, t in
+                                                      zip(self.params, th, strict=True)])
+                    for th in thetas]
+
+        sol = levenberg_marquardt(lambda th: self.residuals(models_at(th)), theta0, lo, hi,
+                                  steps, max_iter=max_iter)
+        return models_at(sol.theta[None, :])[0], sol.cost
 
 
 # -- inverse dynamics ---------------------------------------------------------------------------
