@@ -13,7 +13,17 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController, LoopInputs, fit_arx_controller
 from fricbench.sysid.diagnose.effects import EFFECT_NAMES, describe_parameters
 from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, solve_ls
-from fricbench.sysid.diagnose.models import GreyBox, InverseDynamics, simulate_position
+from fricbench.sysid.diagnose.models import (
+    Bounds,
+    GreyBox,
+    InverseDynamics,
+    JointPositionFit,
+    PositionFit,
+    position_params,
+    simulate_inputs,
+    simulate_models,
+    simulate_position,
+)
 from fricbench.sysid.diagnose.prepared import prepare
 from fricbench.sysid.diagnose.signals import block_folds, noise_floor, period_candidates
 from fricbench.sysid.io import validate_arrays
@@ -151,3 +161,27 @@ def test_levenberg_marquardt_respects_bounds():
                               np.array([2.0, 2.0]), np.array([1e-6, 1e-6]), max_iter=50)
     assert sol.theta[1] == pytest.approx(-1.0)  # held at the bound
     assert 0.0 <= sol.theta[0] <= 2.0
+
+
+def test_joint_position_fit_of_one_run_is_the_position_fit():
+    """The joint fit stacks runs; with one run it is the single-run output-error fit."""
+    ref = _reference(duration=4.0)
+    axis = Axis().with_effects(noise_std=0.1e-6)
+    res = simulate(axis, ref, seed=1)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
+    start = _grey_box_of(Axis()).copy(effects=("coulomb_friction", "stribeck_friction"))
+    start.plant[CL.I_FC] *= 1.3
+    b = Bounds(force=5.0, stroke=prep.stroke, v_max=prep.v_max, duration=prep.duration,
+               ts=prep.ts, noise=prep.noise.rms)
+    params = position_params(start, b, controller=False)
+    single = PositionFit(prep, params).run(start, max_iter=6)
+    joint, cost = JointPositionFit([prep], params).run(start, max_iter=6)
+    np.testing.assert_allclose(joint.plant, single.model.plant, rtol=1e-12)
+    assert cost == pytest.approx(single.cost, rel=1e-12)
+    # the fit moved the Coulomb level back towards the truth (0.875 m/s^2)
+    assert abs(joint.plant[CL.I_FC] - 0.875) < 0.3 * abs(start.plant[CL.I_FC] - 0.875)
+    # simulate_inputs is simulate_models without a measured run
+    y1 = simulate_inputs([joint], prep.inputs, prep.n_sub)[0]
+    np.testing.assert_array_equal(y1, simulate_models([joint], prep)[0])
+    with pytest.raises(ValueError, match="preps is empty"):
+        JointPositionFit([], params)
