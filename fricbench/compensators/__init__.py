@@ -33,6 +33,7 @@ _BUILTIN = {
     "none": "fricbench.compensators.none:NoCompensation",
     "tf-precomp": "fricbench.compensators.precomp:TFPrecompensation",
     "tf-lstm-precomp": "fricbench.compensators.precomp:TFLSTMPrecompensation",
+    "greybox-precomp": "fricbench.compensators.precomp:GreyBoxPrecompensation",
     "friction-ff": "fricbench.compensators.friction_ff:FrictionFeedforward",
     "kalman": "fricbench.compensators.kalman:KalmanDisturbanceObserver",
     "ilc": "fricbench.compensators.ilc:IterativeLearningControl",

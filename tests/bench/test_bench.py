@@ -119,6 +119,6 @@ def test_run_benchmark_on_local_ray() -> None:
 
 
 def test_every_registered_compensator_id_is_listed() -> None:
-    for cid in ("none", "tf-precomp", "tf-lstm-precomp", "friction-ff", "kalman", "ilc",
-                "rl-sac", "rl-ppo"):
+    for cid in ("none", "tf-precomp", "tf-lstm-precomp", "greybox-precomp", "friction-ff",
+                "kalman", "ilc", "rl-sac", "rl-ppo"):
         assert cid in compensator_registry.ids()

@@ -26,6 +26,7 @@ FAST: dict[str, dict[str, Any]] = {
                     "advance_grid": (1,)},
     "ilc": {"iterations": 3},
     "tf-precomp": {"n_runs": 1, "run_duration": 8.0},
+    "greybox-precomp": {"n_runs": 1, "run_duration": 8.0},
     "tf-lstm-precomp": {"n_runs": 1, "run_duration": 8.0,
                         "predictor_kwargs": {"max_epochs": 1, "hidden_size": 4}},
 }
