@@ -143,15 +143,16 @@ class TFLSTMPrecompensation(Precompensation):
 class GreyBoxPrecompensation(Precompensation):
     """Pre-compensation with the identified closed loop (``greybox``).
 
-    The offset is refined on the model 3 times with gain 0.5, each correction 3 samples early:
-    the setting ``fricbench reproduce`` picks for this predictor on its training references
-    (a one-shot shift moves the breakaway and leaves most of the spike).
+    The offset is refined on the model 10 times with gain 0.5, each correction 3 samples
+    early: the setting ``fricbench reproduce`` picks for this predictor on its training
+    references (a one-shot shift moves the breakaway and leaves most of the spike; the model
+    is cheap to run, so iterating on it costs little).
     """
 
     id: ClassVar[str] = "greybox-precomp"
     predictor_id: ClassVar[str] = "greybox"
 
-    def __init__(self, *, n_runs: int = 4, run_duration: float = 20.0, iterations: int = 3,
+    def __init__(self, *, n_runs: int = 4, run_duration: float = 20.0, iterations: int = 10,
                  gain: float = 0.5, advance: int = 3,
                  predictor_kwargs: dict[str, Any] | None = None) -> None:
         super().__init__(n_runs=n_runs, run_duration=run_duration, iterations=iterations,

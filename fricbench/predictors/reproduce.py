@@ -98,7 +98,7 @@ class ReproduceConfig:
     precomp_grid: tuple[tuple[Any, ...], ...] = (
         (1, 1.0, 0), (1, 0.7, 0), (1, 1.0, 3), (1, 0.85, 3), (1, 0.7, 3), (1, 0.5, 3),
         (1, 1.0, 0, True), (1, 1.0, 2, True), (1, 0.85, 2, True), (1, 1.0, 4, True),
-        (1, 0.7, 5), (1, 0.5, 5), (3, 0.5, 3), (5, 0.3, 3))
+        (1, 0.7, 5), (1, 0.5, 5), (3, 0.5, 3), (5, 0.3, 3), (5, 0.5, 3), (10, 0.5, 3))
     cross_training: tuple[tuple[str, dict[str, Any]], ...] = (
         ("m_serial", {}), ("reversal_sine", {"cycles": 1}))
     verbose: bool = True
