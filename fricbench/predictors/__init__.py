@@ -16,6 +16,8 @@ Registered ids:
                   displacement since the turning point, ``a0``, time to the next one)
 ``greybox``       the servo loop itself: cascade controller, unit mass and Stribeck
                   friction with stiction, all identified from the runs and run free
+``greybox+lstm``  ``greybox`` plus an LSTM on physical features trained on its whole
+                  residual (what the loop's structure lacks: pre-sliding, play, ripple)
 ================  =====================================================================
 """
 
@@ -50,6 +52,11 @@ predictor_registry.register("tf+lstm-phys", _LSTM, kwargs={"features": "physical
 predictor_registry.register("greybox", "fricbench.predictors.greybox:GreyBoxPredictor",
                             description="identified closed loop (cascade, mass, Stribeck "
                                         "friction with stiction), run free on the reference")
+predictor_registry.register("greybox+lstm", _LSTM,
+                            kwargs={"base": "greybox", "features": "physical",
+                                    "target": "residual"},
+                            description="greybox plus an LSTM on physical features trained on "
+                                        "its residual")
 
 
 def make_predictor(id: str, **params: Any) -> Predictor:

@@ -11,6 +11,13 @@ Training (paper, Sec. 3.3 and Fig. 9), for runs ``(x_ref, x)``:
 
 Prediction for a new reference: ``x_pred = G x_ref + net(features(x_ref))``.
 
+With ``base="greybox"`` the network corrects the identified closed loop of
+:class:`fricbench.predictors.greybox.GreyBoxPredictor` instead of ``G``: the residual is
+``r = x - greybox(x_ref)`` and ``x_pred = greybox(x_ref) + net(features(x_ref))``. The grey
+box carries the stick-slip the loop and its Stribeck friction explain; the network learns
+what the grey box's structure lacks (pre-sliding, backlash, ...). ``G`` is still fitted, for
+model-inverse pre-compensation.
+
 Network and training choices (the paper gives none; ours, documented):
 
 * one LSTM (or GRU) layer of ``hidden_size`` units and a linear read-out, sequence to sequence;
@@ -51,6 +58,7 @@ import torch
 from fricbench._validation import check_choice, check_int, check_positive, check_range
 from fricbench.predictors.base import Predictor, Run
 from fricbench.predictors.features import FEATURE_SETS, feature_names, reference_features
+from fricbench.predictors.greybox import GreyBoxPredictor
 from fricbench.predictors.tf import check_tf_orders, fit_linear_part, tf_from_state, tf_state
 from fricbench.sysid.friction_error import identify_v_break_multi, presliding_mask
 from fricbench.sysid.tf_fit import simulate_tf
@@ -58,6 +66,7 @@ from fricbench.sysid.tf_fit import simulate_tf
 __all__ = ["TFLSTMPredictor", "SequenceNet"]
 
 TARGETS = ("friction_error", "residual")
+BASES = ("tf", "greybox")
 CELLS = ("lstm", "gru")
 
 
@@ -200,8 +209,11 @@ class TFLSTMPredictor(Predictor):
     features : {"va", "physical"}, optional
         Input features (:mod:`fricbench.predictors.features`); ``"va"`` is the paper's.
     target : {"friction_error", "residual"}, optional
-        What the network learns: the TF residual inside the pre-sliding windows (paper) or the
-        whole residual.
+        What the network learns: the base model's residual inside the pre-sliding windows
+        (paper) or the whole residual.
+    base : {"tf", "greybox"}, optional
+        The model the network corrects: the transfer function (paper) or the identified
+        closed loop (``greybox``).
     cell : {"lstm", "gru"}, optional
         Recurrent cell.
     hidden_size, num_layers : int, optional
@@ -245,6 +257,8 @@ class TFLSTMPredictor(Predictor):
     ----------
     tf_ : control.TransferFunction
         ``G(s)`` fitted outside the pre-sliding windows.
+    base_ : GreyBoxPredictor or None
+        The fitted closed loop (``base="greybox"``).
     v_break_ : float
         Identified break velocity, m/s.
     net_ : SequenceNet
@@ -261,6 +275,7 @@ class TFLSTMPredictor(Predictor):
         self,
         features: str = "va",
         target: str = "friction_error",
+        base: str = "tf",
         cell: str = "lstm",
         hidden_size: int = 48,
         num_layers: int = 1,
@@ -286,6 +301,7 @@ class TFLSTMPredictor(Predictor):
     ) -> None:
         check_choice("features", features, FEATURE_SETS)
         check_choice("target", target, TARGETS)
+        check_choice("base", base, BASES)
         check_choice("cell", cell, CELLS)
         check_int("hidden_size", hidden_size, 1, 4096)
         check_int("num_layers", num_layers, 1, 8)
@@ -312,6 +328,7 @@ class TFLSTMPredictor(Predictor):
         check_int("verbose", verbose, 0)
         self.features = features
         self.target = target
+        self.base = base
         self.cell = cell
         self.hidden_size = hidden_size
         self.num_layers = num_layers
@@ -340,6 +357,10 @@ class TFLSTMPredictor(Predictor):
         return SequenceNet(len(feature_names(self.features)), self.hidden_size, self.num_layers,
                            self.cell)
 
+    def _new_base(self) -> GreyBoxPredictor:
+        return GreyBoxPredictor(n_poles=self.n_poles, n_zeros=self.n_zeros,
+                                verbose=1 if self.verbose else 0)
+
     def _candidate_seeds(self) -> list[int]:
         """Torch seeds of the ``n_init`` candidates: ``seed`` itself, then derived ones."""
         extra = np.random.SeedSequence(self.seed).generate_state(self.n_init - 1)
@@ -360,7 +381,7 @@ class TFLSTMPredictor(Predictor):
         """Raw features and targets of every run, each preceded by ``lead`` samples at rest."""
         raw_x, raw_y = [], []
         for r in runs:
-            res = r.x - simulate_tf(self.tf_, r.x_ref, ts)
+            res = r.x - self._base_position(r.x_ref, ts)
             if self.target == "friction_error":
                 mask = presliding_mask(r.x_ref, ts, self.v_break_, pre=self.window_pre,
                                        post=self.window_post)
@@ -391,12 +412,21 @@ class TFLSTMPredictor(Predictor):
                 torch.tensor(np.stack(wins_y), dtype=torch.float32),
                 torch.tensor(np.stack(wins_m), dtype=torch.float32))
 
+    def _base_position(self, x_ref: np.ndarray, ts: float) -> np.ndarray:
+        """Position predicted by the model the network corrects."""
+        if self.base_ is not None:
+            return self.base_._predict_position(x_ref)
+        return simulate_tf(self.tf_, x_ref, ts)
+
     def _fit(self, runs: list[Run], ts: float) -> None:
         bv = identify_v_break_multi([r.x_ref for r in runs], [r.x for r in runs], ts)
         self.v_break_ = bv.v_break
         self.tf_ = fit_linear_part(runs, ts, self.n_poles, self.n_zeros, self.dc_gain,
                                    v_break=bv.v_break, pre=self.window_pre,
                                    post=self.window_post)
+        self.base_ = None
+        if self.base == "greybox":
+            self.base_ = self._new_base().fit(runs)
         raw_x, raw_y = self._series(runs, ts)
         all_x = np.vstack(raw_x)
         self.feature_mean_ = all_x.mean(axis=0)
@@ -465,7 +495,7 @@ class TFLSTMPredictor(Predictor):
         return y[self.lead:] * self.target_scale_
 
     def _predict_position(self, x_ref: np.ndarray) -> np.ndarray:
-        return simulate_tf(self.tf_, x_ref, self.ts_) + self.predict_friction_error(x_ref)
+        return self._base_position(x_ref, self.ts_) + self.predict_friction_error(x_ref)
 
     # -- persistence ----------------------------------------------------------------------------
     def _state(self) -> dict[str, torch.Tensor]:
@@ -476,6 +506,10 @@ class TFLSTMPredictor(Predictor):
         state["target_scale_"] = torch.tensor(self.target_scale_, dtype=torch.float64)
         for k, v in self.net_.state_dict().items():
             state[f"net.{k}"] = v.detach().clone()
+        if self.base_ is not None:
+            for k, v in self.base_._state().items():
+                state[f"base.{k}"] = v
+            state["base.ts_"] = torch.tensor(self.base_.ts_, dtype=torch.float64)
         return state
 
     def _expected_shapes(self, state: dict[str, torch.Tensor]) -> dict[str, tuple[int, ...]]:
@@ -485,6 +519,10 @@ class TFLSTMPredictor(Predictor):
             "feature_mean_": (n_feat,), "feature_scale_": (n_feat,), "target_scale_": ()}
         for k, v in self._new_net().state_dict().items():
             shapes[f"net.{k}"] = tuple(v.shape)
+        if self.base == "greybox":
+            for k, shape in self._new_base()._expected_shapes(state).items():
+                shapes[f"base.{k}"] = shape
+            shapes["base.ts_"] = ()
         return shapes
 
     def _set_state(self, state: dict[str, torch.Tensor]) -> None:
@@ -497,3 +535,9 @@ class TFLSTMPredictor(Predictor):
         net.load_state_dict({k[4:]: v for k, v in state.items() if k.startswith("net.")})
         net.eval()
         self.net_ = net
+        self.base_ = None
+        if self.base == "greybox":
+            base = self._new_base()
+            base._set_state({k[5:]: v for k, v in state.items() if k.startswith("base.")})
+            base.ts_ = float(state["base.ts_"])
+            self.base_ = base

@@ -93,7 +93,7 @@ class ReproduceConfig:
     train_seed: int = 1
     test_seed: int = 101
     predictors: tuple[str, ...] = ("tf", "tf+lstm", "tf+stribeck", "tf+lstm-phys",
-                                   "greybox")
+                                   "greybox", "greybox+lstm")
     predictor_params: dict[str, Any] = field(default_factory=dict)
     precomp_grid: tuple[tuple[Any, ...], ...] = (
         (1, 1.0, 0), (1, 0.7, 0), (1, 1.0, 3), (1, 0.85, 3), (1, 0.7, 3), (1, 0.5, 3),

@@ -81,3 +81,27 @@ def test_non_finite_stored_loop_is_refused(fitted, tmp_path) -> None:
     bad = _rewrite(path, tmp_path / "bad.fbp", state=state)
     with pytest.raises(PredictorFileError, match="non-finite"):
         Predictor.load(bad)
+
+
+def test_greybox_lstm_adds_the_network_to_the_grey_box(small_runs, small_reference,
+                                                      make_fast, tmp_path) -> None:
+    pred = make_fast("greybox+lstm").fit(small_runs)
+    assert isinstance(pred.base_, GreyBoxPredictor)
+    np.testing.assert_allclose(pred.predict(small_reference),
+                               pred.base_.predict(small_reference)
+                               + pred.predict_friction_error(small_reference.x))
+    # the saved file carries the grey box; without it the file is refused
+    path = tmp_path / "gbl.fbp"
+    pred.save(path)
+    with zipfile.ZipFile(path) as zf:
+        state = torch.load(io.BytesIO(zf.read("weights.pt")), weights_only=True)
+    assert "base.plant_" in state and "base.ts_" in state
+    del state["base.plant_"]
+    bad = _rewrite(path, tmp_path / "bad.fbp", state=state)
+    with pytest.raises(PredictorFileError, match="base.plant_"):
+        Predictor.load(bad)
+
+
+def test_unknown_base_is_named() -> None:
+    with pytest.raises(ValueError, match="base='arx'"):
+        make_predictor("tf+lstm", base="arx")
