@@ -16,6 +16,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import FuncFormatter
 from tqdm import tqdm
 
 from fricbench.axis import Axis, simulate
@@ -96,7 +97,10 @@ def plot(res: dict[str, dict[str, tuple[float, float]]], path: str) -> None:
                       fontsize=8)
         ax.set_title(f"{traj}: TF-only max error / predictor's (held-out)")
         ax.set_yscale("log")
-    axs[0].set_ylabel("ratio (higher is better; dashed: 10x)")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}x"))
+        ax.yaxis.set_minor_formatter(FuncFormatter(
+            lambda v, _: f"{v:g}x" if v in (2.0, 3.0, 5.0, 20.0, 30.0) else ""))
+    axs[0].set_ylabel("TF-only / predictor (higher is better; dashed: 10x)")
     axs[1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

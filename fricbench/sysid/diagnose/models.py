@@ -9,7 +9,8 @@
 * :class:`PositionFit` fits any subset of controller, plant and effect parameters to the measured
   position by output error: the model runs free on the reference and the simulated position is
   compared with the measured one (bounded trust-region least squares, Jacobian by batched finite
-  differences).
+  differences). :class:`JointPositionFit` does the same on several runs of one axis at once
+  (the ``greybox`` predictor's fit).
 """
 
 from __future__ import annotations
