@@ -17,11 +17,13 @@ identified by output error from the training runs (:mod:`fricbench.sysid.diagnos
 grey box and simulator the diagnosis uses). The fit:
 
 1. a linear cascade loop on the first run (several standard starting loops, output error);
-2. the loop gains together with a Coulomb force from that loop and from the best standard
-   loop (without a disturbance in the model the feedback gains hardly show in the data);
-3. with ``friction="stribeck"``, the Stribeck term from ``len(vs_starts)`` starting Stribeck
-   velocities; every start is fitted jointly on all runs (residuals stacked, each run scaled by
-   its own noise floor) and the lowest joint cost wins.
+2. the loop gains identified together with a Coulomb force on the first run, from that loop
+   and from the best standard loop (without a disturbance in the model the feedback gains
+   hardly show in the data);
+3. loop, damping and Coulomb level fitted jointly on all runs (residuals stacked, each run
+   scaled by its own noise floor: :class:`~fricbench.sysid.diagnose.models.JointPositionFit`);
+4. with ``friction="stribeck"``, the Stribeck term added from each of ``vs_starts`` and
+   everything refitted jointly; the lowest joint cost wins.
 
 ``tf_`` is the linear transfer function of ``tf+lstm`` (outside the pre-sliding windows), kept
 for model-inverse pre-compensation.
