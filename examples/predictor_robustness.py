@@ -4,7 +4,7 @@ For the default axis and five variants with one thing changed, every predictor i
 the two training runs of ``fricbench reproduce`` (M-serial and curve, 0.1 um noise, seeds 1
 and 2) and scored on the held-out runs (0.05 um, seeds 101 and 102) by the max prediction
 error against the true position. Prints the table quoted in docs/reproduction.md and writes
-docs/img/predictor_robustness.png. About 10 minutes on 2 cores (the LSTMs).
+docs/img/predictor_robustness.png. About 8 minutes on 2 cores (the LSTMs).
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ def plot(res: dict[str, dict[str, tuple[float, float]]], path: str) -> None:
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}x"))
         ax.yaxis.set_minor_formatter(FuncFormatter(
             lambda v, _: f"{v:g}x" if v in (2.0, 3.0, 5.0, 20.0, 30.0) else ""))
-    axs[0].set_ylabel("TF-only / predictor (higher is better; dashed: 10x)")
+    axs[0].set_ylabel("TF-only / predictor (dashed: 10x)")
     axs[1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
