@@ -469,10 +469,7 @@ def _poly(coeffs: Sequence[float]) -> str:
 
 
 def _description(pid: str) -> str:
-    try:
-        return predictor_registry.spec(pid).description or pid
-    except KeyError:  # pragma: no cover - a report of a predictor unregistered since
-        return pid
+    return predictor_registry.spec(pid).description or pid
 
 
 def format_report(result: ReproduceResult) -> str:

@@ -353,6 +353,22 @@ def _with_values(model: GreyBox, params: Sequence[Param], values: Sequence[float
     return model.copy(controller=ctrl, plant=plant)
 
 
+def _lm_box(params: Sequence[Param], model: GreyBox
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Start, bounds and finite-difference steps of an output-error fit, in theta space."""
+    theta0 = np.array([p.to_theta(p.get(model)) for p in params])
+    lo = np.array([p.bounds()[0] for p in params])
+    hi = np.array([p.bounds()[1] for p in params])
+    steps = np.minimum(np.where([p.log for p in params], 2e-3, 1e-3), 0.05 * (hi - lo))
+    return theta0, lo, hi, steps
+
+
+def _models_at(base: GreyBox, params: Sequence[Param], thetas: np.ndarray) -> list[GreyBox]:
+    """``base`` with the free parameters set to each row of ``thetas``."""
+    return [_with_values(base, params, [p.from_theta(t) for p, t in zip(params, th, strict=True)])
+            for th in thetas]
+
+
 @dataclass
 class PositionFitResult:
     """Outcome of :meth:`PositionFit.run`."""
@@ -387,11 +403,6 @@ class PositionFit:
         self.scale = max(prep.noise.rms, 1e-9)
         self._cache: tuple[np.ndarray, np.ndarray] | None = None
 
-    def _models(self, base: GreyBox, thetas: np.ndarray) -> list[GreyBox]:
-        return [_with_values(base, self.params, [p.from_theta(t) for p, t in
-                                                  zip(self.params, th, strict=True)])
-                for th in thetas]
-
     def _resid(self, y: np.ndarray) -> np.ndarray:
         r = (self.prep.x - y)[self.mask] / self.scale
         bad = ~np.isfinite(r)
@@ -405,16 +416,12 @@ class PositionFit:
             y, _ = simulate_position(model, self.prep, self.w)
             r = self._resid(y)
             return PositionFitResult(model, y, 0.5 * sumsq(r), 0)
-        theta0 = np.array([p.to_theta(p.get(model)) for p in self.params])
-        lo = np.array([p.bounds()[0] for p in self.params])
-        hi = np.array([p.bounds()[1] for p in self.params])
-        span = hi - lo
-        steps = np.where([p.log for p in self.params], 2e-3, 1e-3)
-        steps = np.minimum(steps, 0.05 * span)
+        theta0, lo, hi, steps = _lm_box(self.params, model)
         last: dict[str, np.ndarray] = {}
 
         def residuals(thetas: np.ndarray) -> np.ndarray:
-            ys, _, _ = simulate_models(self._models(model, thetas), self.prep, self.w)
+            ys, _, _ = simulate_models(_models_at(model, self.params, thetas), self.prep,
+                                       self.w)
             if thetas.shape[0] == 1:
                 last["theta"], last["y"] = thetas[0].copy(), ys[0]
             else:
@@ -423,7 +430,7 @@ class PositionFit:
             return np.array([self._resid(y) for y in ys])
 
         sol = levenberg_marquardt(residuals, theta0, lo, hi, steps, max_iter=max_iter)
-        fitted = self._models(model, sol.theta[None, :])[0]
+        fitted = _models_at(model, self.params, sol.theta[None, :])[0]
         y = None  # type: ignore[assignment]
         if "theta" in last and np.array_equal(last["theta"], sol.theta):
             y = last["y"]
@@ -468,19 +475,11 @@ class JointPositionFit:
         """Fit from ``model``'s current values; returns the fitted model and its cost."""
         if not self.params:
             return model, 0.5 * sumsq(self.residuals([model])[0])
-        theta0 = np.array([p.to_theta(p.get(model)) for p in self.params])
-        lo = np.array([p.bounds()[0] for p in self.params])
-        hi = np.array([p.bounds()[1] for p in self.params])
-        steps = np.minimum(np.where([p.log for p in self.params], 2e-3, 1e-3), 0.05 * (hi - lo))
-
-        def models_at(thetas: np.ndarray) -> list[GreyBox]:
-            return [_with_values(model, self.params, [p.from_theta(t) for p, t in
-                                                      zip(self.params, th, strict=True)])
-                    for th in thetas]
-
-        sol = levenberg_marquardt(lambda th: self.residuals(models_at(th)), theta0, lo, hi,
-                                  steps, max_iter=max_iter)
-        return models_at(sol.theta[None, :])[0], sol.cost
+        theta0, lo, hi, steps = _lm_box(self.params, model)
+        sol = levenberg_marquardt(
+            lambda th: self.residuals(_models_at(model, self.params, th)), theta0, lo, hi,
+            steps, max_iter=max_iter)
+        return _models_at(model, self.params, sol.theta[None, :])[0], sol.cost
 
 
 # -- inverse dynamics ---------------------------------------------------------------------------
