@@ -1,10 +1,11 @@
-"""The one batched physics step of the servo feed axis.
+"""The cascade controller driving the plant: the batched step of the environments.
 
-Everything that simulates an axis (the scalar env, the native vector env, ``simulate``, the
-benchmark runner and the diagnosis) calls :func:`run_kernel`, which advances ``N`` independent
-axes over ``K`` control samples; the native vector env's fused step
-(:mod:`fricbench.gym.vector_step`) inlines the same per-axis body, :func:`advance_axis`. There is
-no second copy of these equations anywhere.
+:func:`run_kernel` advances ``N`` independent axes over ``K`` control samples; the scalar env,
+the native vector env (whose fused step, :mod:`fricbench.gym.vector_step`, inlines the same
+per-axis body :func:`advance_axis`), ``simulate`` and the benchmark runner call it. The
+physics (actuator, mechanics, effects, sensor) is :mod:`fricbench.axis.plant`, which the
+identified-law driver of the diagnosis (:mod:`fricbench.axis.linear_law`) calls too: there is
+one copy of the plant's equations.
 
 Per control sample ``k`` (period ``Ts``, zero-order hold on the current command):
 
@@ -13,12 +14,9 @@ Per control sample ``k`` (period ``Ts``, zero-order hold on the current command)
 3. velocity PI on the backward-difference velocity ``(x_fb[k] - x_fb[k-1]) / Ts`` with
    clamping anti-windup, plus acceleration feedforward and the compensation force, gives the
    current command ``i = Kv (e_v + I) + (kaff M a_r + u_comp) / Kt`` (A),
-4. optional pure delay of ``d`` samples, then current saturation ``|i| <= i_max``,
-5. the mechanics ``M dv/dt = Kt i - B v - F_f - F_load - F_cog(x)`` are integrated over
-   ``n_sub`` fixed substeps: implicit (Kikuuwe 2005) update for static friction laws, so that
-   stiction holds exactly; exponential bristle update for LuGre/Dahl,
-6. transmission backlash (play operator) and thermal drift give the table position; the sensor
-   is quantised and noise is added.
+4. the plant: optional pure delay of ``d`` samples, current saturation ``|i| <= i_max``, the
+   mechanics over ``n_sub`` substeps, backlash, thermal drift and the sensor
+   (:func:`fricbench.axis.plant.advance`, :func:`fricbench.axis.plant.sense`).
 """
 
 from __future__ import annotations
@@ -29,24 +27,32 @@ import os
 import numba
 import numpy as np
 
-from fricbench.friction.laws import (
+from fricbench.axis import plant as PL
+from fricbench.axis.plant import (
+    DELAY_MAX,
+    FASTMATH,
     KIND_DAHL,
     KIND_LUGRE,
     KIND_STATIC,
-    stribeck_level,
-    stribeck_level_taylor,
+    N_PLANT,
 )
 
 # -- parameter vector layout (columns of P, one row per axis) ------------------------------------
-P_TS, P_NSUB, P_M, P_B, P_KT, P_IMAX, P_KP, P_KVFF, P_KAFF, P_KV, P_TI, P_FLOAD = range(12)
-P_FKIND, P_FC, P_FS, P_VS, P_DELTA, P_FV, P_SIGMA0, P_SIGMA1 = range(12, 20)
-(P_BACKLASH, P_MEAS_TABLE, P_COG_AMP, P_COG_PERIOD, P_COG_PHASE, P_PD_GRAD, P_PD_AMP,
- P_PD_PERIOD, P_PD_PHASE, P_TH_AMP, P_TH_TAU, P_QUANT, P_NOISE, P_DELAY) = range(20, 34)
-N_PARAMS = 34
+# the plant row of :mod:`fricbench.axis.plant` first, then the cascade's gains
+P_TS, P_NSUB, P_M, P_B, P_KT, P_IMAX, P_DELAY = PL.TS, PL.NSUB, PL.M, PL.B, PL.KT, PL.IMAX, PL.DELAY
+P_FKIND, P_FC, P_DFC, P_FS_EXCESS, P_VS, P_DELTA = PL.FKIND, PL.FC, PL.DFC, PL.FS_EXCESS, PL.VS, \
+    PL.DELTA
+P_FV, P_DB, P_SIGMA0, P_SIGMA1, P_FLOAD = PL.FV, PL.DB, PL.SIGMA0, PL.SIGMA1, PL.OFFSET
+P_COG_SIN, P_COG_COS, P_COG_PERIOD = PL.COG_SIN, PL.COG_COS, PL.COG_PERIOD
+P_PD_GRAD, P_PD_SIN, P_PD_COS, P_PD_PERIOD = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIOD
+P_BACKLASH, P_TH_AMP, P_TH_TAU, P_QUANT, P_NOISE, P_MEAS_TABLE = (
+    PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.QUANT, PL.NOISE, PL.MEAS_TABLE)
+P_KP, P_KVFF, P_KAFF, P_KV, P_TI = range(N_PLANT, N_PLANT + 5)
+N_PARAMS = N_PLANT + 5
 
-# -- state vector layout (columns of S) -----------------------------------------------------------
-S_X, S_V, S_XPLAY, S_Z, S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(11)
-DELAY_MAX = 16
+# -- state vector layout (columns of S): the plant's state, then the cascade's ---------------------
+S_X, S_V, S_XPLAY, S_Z = PL.S_X, PL.S_V, PL.S_XPLAY, PL.S_Z
+S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(4, 11)
 S_DBUF = 11
 N_STATE = S_DBUF + DELAY_MAX
 
@@ -58,113 +64,34 @@ RUNAWAY_VELOCITY = 100.0  # m/s: no feed axis moves this fast; the loop has gone
 RUNAWAY_POSITION = 1.0e3  # m
 
 
-def _sensor(x_motor: float, x_play: float, t: float, th_amp: float, th_tau: float,
-            q: float, meas_table: bool, noise: float) -> tuple[float, float]:
-    """Feedback reading and logged (table) reading of one axis at time ``t``."""
-    drift = 0.0
-    if th_amp != 0.0:
-        # d(t) = d_inf (1 - exp(-t / tau))
-        drift = th_amp * (1.0 - math.exp(-t / th_tau))
-    x_table = x_play + drift
-    x_sensor = x_table if meas_table else x_motor
-    if q > 0.0:
-        x_sensor = q * math.floor(x_sensor / q + 0.5)
-        x_table = q * math.floor(x_table / q + 0.5)
-    return x_sensor + noise, x_table + noise
-
-
 def _measure(p: np.ndarray, s: np.ndarray, noise: float) -> None:
     """Take a new sensor reading into state ``s`` (used at reset)."""
-    fb, logged = _sensor(s[S_X], s[S_XPLAY], s[S_T], p[P_TH_AMP], p[P_TH_TAU], p[P_QUANT],
-                         p[P_MEAS_TABLE] > 0.5, p[P_NOISE] * noise)
+    c = PL.constants(p)
+    fb, logged = PL.sense(c, s[S_X], s[S_XPLAY], s[S_T], c.noise * noise)
     s[S_XFB_PREV] = s[S_XFB]
     s[S_XFB] = fb
     s[S_XMEAS] = logged
 
 
-def _mechanics(x: float, v: float, z: float, f_ext: float, h: float, m: float, b: float,
-               kind: int, fc: float, fs: float, vs: float, delta: float, fv: float,
-               sigma0: float, sigma1: float) -> tuple[float, float, float]:
-    """One substep of ``M dv/dt = f_ext - B v - F_f``: returns ``(v_new, z_new, F_f)``."""
-    damping = b + fv
-    if kind == KIND_STATIC:
-        # Kikuuwe: v+ = v* - h Sgn(v+) F_c / (M + h b); stick when |v*| <= h F_s / (M + h b).
-        # Reciprocals of the per-axis constants are loop-invariant once inlined: the substep
-        # chain then has no division on its critical path.
-        inv_m_eff = 1.0 / (m + h * damping)
-        h_inv_m_eff = h * inv_m_eff
-        inv_vs = 1.0 / vs if vs > 0.0 else 0.0
-        v_star = (m * v + h * f_ext) * inv_m_eff
-        speed = abs(v_star)
-        if speed <= h_inv_m_eff * max(fs, fc):
-            v_new = 0.0
-        else:
-            level, slope, curv = stribeck_level_taylor(speed, fc, fs, inv_vs, delta)
-            v_new = v_star - math.copysign(level * h_inv_m_eff, v_star)
-            if v_new * v_star < 0.0:
-                v_new = 0.0
-            elif slope != 0.0:
-                # one midpoint correction of the velocity-dependent level, 2nd-order accurate
-                # in sliding where the Stribeck curve changes within a few substeps; the level
-                # at the midpoint speed comes from its Taylor expansion about |v*| (one exp per
-                # substep, not two; the midpoint is a fraction of vs away)
-                v_mid = 0.5 * (abs(v_new) + (abs(v) if v * v_star > 0.0 else 0.0))
-                dv = v_mid - speed
-                level_mid = level + dv * (slope + 0.5 * curv * dv)
-                level_mid = min(max(level_mid, min(fc, fs)), max(fc, fs))
-                v_new = v_star - math.copysign(level_mid * h_inv_m_eff, v_star)
-                if v_new * v_star < 0.0:
-                    v_new = 0.0
-        # F_f = (M v + h f_ext - M v+) / h - b v+
-        f_fric = m * (v - v_new) * (1.0 / h) + f_ext - b * v_new
-        return v_new, z, f_fric
-    s1 = sigma1 if kind == KIND_LUGRE else 0.0
-    g = fc if kind == KIND_DAHL else stribeck_level(abs(v), fc, fs, vs, delta)
-    # dz/dt = v - sigma0 |v| z / g(v): exact for v frozen over the substep (stable for any h)
-    if v != 0.0 and g > 0.0:
-        z_ss = math.copysign(g / sigma0, v)
-        z_new = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(v) * h / g)
-    else:
-        z_new = z + v * h
-    rate = (z_new - z) / h
-    # F = sigma0 z + sigma1 dz/dt + fv v; the sigma1 v part of dz/dt is taken implicitly
-    f_bristle = sigma0 * z_new + s1 * (rate - v)
-    v_new = (m * v + h * (f_ext - f_bristle)) / (m + h * (damping + s1))
-    return v_new, z_new, f_bristle + s1 * v_new + fv * v_new
-
-
 def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
-              ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray,
-              x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
-              status: np.ndarray) -> None:
+                 ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray,
+                 x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray,
+                 friction: np.ndarray, status: np.ndarray) -> None:
     """Advance axis ``n`` over all samples of its rows of ``xr, ...`` (inputs and outputs as in
     :func:`run_kernel`).
 
-    The body shared by the serial and parallel drivers and by the fused vector-env step; it is
-    inlined into each caller.
+    The cascade controller around :mod:`fricbench.axis.plant`; the body shared by the serial
+    and parallel drivers and by the fused vector-env step, inlined into each caller.
     """
     n_samples = xr.shape[1]
     p = P[n]
     s = S[n]
     # parameters and state live in locals over the whole run: the inner loop touches no
     # arrays but the inputs and outputs
+    c = PL.constants(p)
     ts = p[P_TS]
-    n_sub = int(p[P_NSUB])
-    h = ts / n_sub
-    m, b, kt, i_max = p[P_M], p[P_B], p[P_KT], p[P_IMAX]
-    kp, kvff, kaff, kv, ti, f_load = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI], \
-        p[P_FLOAD]
-    kind = int(p[P_FKIND])
-    fc0, fs0, vs, delta, fv = p[P_FC], p[P_FS], p[P_VS], p[P_DELTA], p[P_FV]
-    sigma0, sigma1 = p[P_SIGMA0], p[P_SIGMA1]
-    backlash = p[P_BACKLASH]
-    cog_amp, cog_k, cog_ph = p[P_COG_AMP], 2.0 * math.pi / p[P_COG_PERIOD], p[P_COG_PHASE]
-    pd_grad, pd_amp = p[P_PD_GRAD], p[P_PD_AMP]
-    pd_k, pd_ph = 2.0 * math.pi / p[P_PD_PERIOD], p[P_PD_PHASE]
-    th_amp, th_tau, quant = p[P_TH_AMP], p[P_TH_TAU], p[P_QUANT]
-    meas_table = p[P_MEAS_TABLE] > 0.5
-    sig_noise = p[P_NOISE]
-    delay = int(p[P_DELAY])
+    m, kt = c.m, c.kt
+    kp, kvff, kaff, kv, ti = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI]
     ki = ts / ti if ti > 0.0 else 0.0
     x, v, x_play, z = s[S_X], s[S_V], s[S_XPLAY], s[S_Z]
     integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
@@ -180,72 +107,33 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
         e_v = v_cmd - (x_fb - x_fb_prev) / ts
         # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
         i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
-        if delay > 0:
-            i_app = s[S_DBUF + delay - 1]
-            for j in range(delay - 1, 0, -1):
-                s[S_DBUF + j] = s[S_DBUF + j - 1]
-            s[S_DBUF] = i_cmd
-        else:
-            i_app = i_cmd
-        saturated = False
-        if i_app > i_max:
-            i_app = i_max
-            saturated = e_v > 0.0
-        elif i_app < -i_max:
-            i_app = -i_max
-            saturated = e_v < 0.0
+        # -- plant: actuator ------------------------------------------------------------
+        i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
         # clamping anti-windup: freeze I while the output saturates in the direction of e_v
-        if not saturated:
+        if not (clipped * e_v > 0.0):
             integ += ki * e_v
         f_motor = kt * i_app
-        # -- mechanics over n_sub substeps (zero-order hold on the force) -----------------
-        f_sum = 0.0
-        for _ in range(n_sub):
-            scale = 1.0 + pd_grad * x
-            if pd_amp != 0.0:
-                scale += pd_amp * math.sin(pd_k * x + pd_ph)
-            f_ext = f_motor - f_load
-            if cog_amp != 0.0:
-                # F_cog = A sin(2 pi x / lambda + phi)
-                f_ext -= cog_amp * math.sin(cog_k * x + cog_ph)
-            v_new, z, f_fric = _mechanics(x, v, z, f_ext, h, m, b, kind, fc0 * scale,
-                                          fs0 * scale, vs, delta, fv, sigma0, sigma1)
-            # trapezoidal position: exact when the velocity changes linearly over h
-            x += 0.5 * h * (v + v_new)
-            v = v_new
-            f_sum += f_fric
-            if backlash > 0.0:
-                # play operator: the table follows only once the lost motion is taken up
-                if x - x_play > 0.5 * backlash:
-                    x_play = x - 0.5 * backlash
-                elif x - x_play < -0.5 * backlash:
-                    x_play = x + 0.5 * backlash
-            else:
-                x_play = x
+        # -- plant: mechanics over n_sub substeps ---------------------------------------
+        x, v, z, x_play, f_fric = PL.advance(c, x, v, z, x_play, f_motor)
         t += ts
         force[n, k] = f_motor
-        friction[n, k] = f_sum / n_sub
+        friction[n, k] = f_fric
         if not (math.isfinite(v) and math.isfinite(x) and math.isfinite(integ)):
             status[n] = STATUS_NONFINITE
             break
         if abs(v) > RUNAWAY_VELOCITY or abs(x) > RUNAWAY_POSITION:
             status[n] = STATUS_RUNAWAY
             break
-        # -- sensor reading for the next sample ------------------------------------------
+        # -- plant: sensor reading for the next sample -----------------------------------
         x_fb_prev = x_fb
-        x_fb, x_logged = _sensor(x, x_play, t, th_amp, th_tau, quant, meas_table,
-                                 sig_noise * noise[n, k])
+        x_fb, x_logged = PL.sense(c, x, x_play, t, c.noise * noise[n, k])
     s[S_X], s[S_V], s[S_XPLAY], s[S_Z] = x, v, x_play, z
     s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t
     s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP] = x_logged, off_prev, i_app
 
 
-# Fast-math without the no-NaN/no-inf assumptions, so that the divergence checks stay valid:
-# reciprocals, fused multiply-add and reassociation change results by rounding only.
-FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
-_sensor = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_sensor)
+# fast-math as in the plant (FASTMATH): rounding-level changes only, divergence checks kept
 _measure = numba.njit(cache=True)(_measure)
-_mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
 advance_axis = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance_axis)
 
 

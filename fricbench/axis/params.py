@@ -6,6 +6,7 @@ number comes from is in ``docs/default_axis.md``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -282,7 +283,8 @@ class Axis:
         p[K.P_FLOAD] = m.load
         p[K.P_FKIND] = f["kind"]
         p[K.P_FC] = f["fc"]
-        p[K.P_FS] = f["fs"]
+        # the plant holds the static level as its excess over the Coulomb level
+        p[K.P_FS_EXCESS] = f["fs"] - f["fc"]
         p[K.P_VS] = f["vs"]
         p[K.P_DELTA] = f["delta"]
         p[K.P_FV] = f["fv"]
@@ -290,13 +292,14 @@ class Axis:
         p[K.P_SIGMA1] = f["sigma1"]
         p[K.P_BACKLASH] = e.backlash
         p[K.P_MEAS_TABLE] = 1.0 if e.measurement == "table" else 0.0
-        p[K.P_COG_AMP] = e.cogging_amplitude
+        # A sin(2 pi x / lambda + phi) = A cos(phi) sin(2 pi x / lambda) + A sin(phi) cos(...)
+        p[K.P_COG_SIN] = e.cogging_amplitude * math.cos(e.cogging_phase)
+        p[K.P_COG_COS] = e.cogging_amplitude * math.sin(e.cogging_phase)
         p[K.P_COG_PERIOD] = e.cogging_period
-        p[K.P_COG_PHASE] = e.cogging_phase
         p[K.P_PD_GRAD] = e.friction_gradient
-        p[K.P_PD_AMP] = e.friction_variation
+        p[K.P_PD_SIN] = e.friction_variation * math.cos(e.friction_variation_phase)
+        p[K.P_PD_COS] = e.friction_variation * math.sin(e.friction_variation_phase)
         p[K.P_PD_PERIOD] = e.friction_variation_period
-        p[K.P_PD_PHASE] = e.friction_variation_phase
         p[K.P_TH_AMP] = e.thermal_drift
         p[K.P_TH_TAU] = e.thermal_time_constant
         p[K.P_QUANT] = e.quantization

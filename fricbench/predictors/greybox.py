@@ -37,6 +37,7 @@ import numpy as np
 import torch
 
 from fricbench._validation import check_choice, check_int
+from fricbench.axis import plant as PL
 from fricbench.predictors.base import Predictor, Run
 from fricbench.predictors.tf import fit_linear_part, tf_from_state, tf_state
 from fricbench.sysid.diagnose import closed_loop as CL
@@ -66,6 +67,14 @@ def loop_inputs(x_ref: np.ndarray, ts: float) -> LoopInputs:
     t = ts * np.arange(x_ref.shape[0])
     return LoopInputs(t=t, ts=ts, xr=x_ref, vr=vr, ar=ar, x0=float(x_ref[0]), v0=0.0,
                       u0=float(ar[0]))
+
+
+def _plant_size(state: dict[str, torch.Tensor]) -> int:
+    """Stored plant-row length: the shared plant's, or the 19 entries of earlier files."""
+    stored = state.get("plant_")
+    if stored is not None and tuple(stored.shape) == (CL.LEGACY_N_PLANT,):
+        return CL.LEGACY_N_PLANT
+    return CL.N_PLANT
 
 
 def _joint_bounds(preps: list[Prepared], first: Bounds) -> Bounds:
@@ -185,13 +194,18 @@ class GreyBoxPredictor(Predictor):
 
     def _expected_shapes(self, state: dict[str, torch.Tensor]) -> dict[str, tuple[int, ...]]:
         return {"tf_num": (self.n_zeros + 1,), "tf_den": (self.n_poles + 1,),
-                "controller_": (len(_CONTROLLER_KEYS),), "plant_": (CL.N_PLANT,),
+                "controller_": (len(_CONTROLLER_KEYS),), "plant_": (_plant_size(state),),
                 "fit_": (2,)}
 
     def _set_state(self, state: dict[str, torch.Tensor]) -> None:
         values = [float(v) for v in state["controller_"]]
         plant = state["plant_"].numpy().astype(float)
-        if not (np.all(np.isfinite(values)) and np.all(np.isfinite(plant))):
+        if plant.shape[0] != CL.N_PLANT:
+            plant = CL.from_legacy_row(plant)
+        # an unlimited actuator is the one infinite entry a plant row may hold
+        limits = plant[PL.IMAX]
+        if not (np.all(np.isfinite(values)) and np.all(np.isfinite(np.delete(plant, PL.IMAX)))
+                and limits > 0.0):
             raise ValueError("the stored loop has non-finite parameters")
         ctrl = CascadeController(**dict(zip(_CONTROLLER_KEYS, values, strict=True)))
         effects = ("coulomb_friction",) + (("stribeck_friction",)

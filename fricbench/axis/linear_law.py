@@ -1,0 +1,167 @@
+"""A linear discrete control law driving the plant: the loop the diagnosis identifies.
+
+The second controller driver of :mod:`fricbench.axis.plant` (the first is the cascade of
+:mod:`fricbench.axis.kernel`). Per sample ``k``::
+
+    y_fb[k], y[k] = sense(plant)                                       feedback and logged position
+    u[k] = sum_i a_i u[k-i] + r[k] + sum_j c_j y_fb[k-j] + w[k]        linear law (ARX form)
+    plant: actuator (delay, saturation), mechanics over n_sub substeps, with Kt u as the force
+
+* ``r[k]`` is the law's precomputed reference part (position, velocity and acceleration
+  feedforward), ``c_j`` its feedback on the position the controller sees, ``a_i`` its own
+  recursion (``a_1 = 1`` is an integrator), ``w`` an optional injected effort (test pulses);
+* any law of this form fits: a cascade rewritten as one difference equation, a PID, or a law
+  identified from a logged effort by least squares.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from fricbench.axis import plant as PL
+from fricbench.axis.plant import DELAY_MAX, FASTMATH, N_PLANT
+
+__all__ = ["simulate_batch", "simulate_one", "DIVERGED_SPEED"]
+
+# |v| above which a row has diverged. The diagnosis may run in any unit (m, rad, deg, a unit
+# mass), so the bound is far above any real motion rather than the cascade's 100 m/s.
+DIVERGED_SPEED = 1.0e6
+
+
+def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.ndarray,
+             t: np.ndarray, x0: float, v0: float, u_init: np.ndarray, y_init: np.ndarray,
+             noise: np.ndarray, y_out: np.ndarray, u_out: np.ndarray) -> int:
+    n = r.shape[0]
+    na = a.shape[0]
+    nc = c.shape[0]
+    pc = PL.constants(p)
+    # histories: uh[i] = u[k-1-i], yh[j] = y_fb[k-j] (yh[0] is filled each sample)
+    uh = u_init.copy()
+    yh = np.empty(max(nc, 1))
+    for j in range(nc):
+        yh[j] = y_init[j] if j < y_init.shape[0] else y_init[-1]
+    buf = np.zeros(DELAY_MAX)
+    x = x0
+    v = v0
+    z = 0.0
+    play = x0
+    for k in range(n):
+        y_fb, y_k = PL.sense(pc, x, play, t[k], noise[k])
+        y_out[k] = y_k
+        for j in range(nc - 1, 0, -1):
+            yh[j] = yh[j - 1]
+        if nc > 0:
+            yh[0] = y_fb
+        # u[k] = sum_i a_i u[k-i] + r[k] + sum_j c_j y_fb[k-j] + w[k]
+        u = r[k] + w[k]
+        for i in range(na):
+            u += a[i] * uh[i]
+        for j in range(nc):
+            u += c[j] * yh[j]
+        for i in range(na - 1, 0, -1):
+            uh[i] = uh[i - 1]
+        if na > 0:
+            uh[0] = u
+        u_out[k] = u
+        u_app, _ = PL.actuate(pc, buf, 0, u)
+        x, v, z, play, _ = PL.advance(pc, x, v, z, play, pc.kt * u_app)
+        if not (math.isfinite(x) and abs(v) < DIVERGED_SPEED):
+            for kk in range(k + 1, n):
+                y_out[kk] = np.nan
+                u_out[kk] = np.nan
+            return 1
+    return 0
+
+
+_run_one = numba.njit(cache=True, fastmath=FASTMATH)(_run_one)
+
+
+@numba.njit(cache=True, parallel=True)
+def _run_batch(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np.ndarray,
+               t: np.ndarray, x0: float, v0: float, U0: np.ndarray, y_init: np.ndarray,
+               noise: np.ndarray, Y: np.ndarray, U: np.ndarray, status: np.ndarray) -> None:
+    for i in numba.prange(P.shape[0]):
+        status[i] = _run_one(P[i], A[i], C[i], R[i], w, t, x0, v0, U0[i], y_init, noise, Y[i],
+                             U[i])
+
+
+def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray,
+                   t: np.ndarray, ts: float, *, n_sub: int, x0: float, v0: float,
+                   u_init: np.ndarray, y_init: np.ndarray, w: np.ndarray | None = None,
+                   noise: np.ndarray | None = None, quant: float = 0.0,
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Simulate ``N`` parameter sets of the closed loop in parallel (one row each).
+
+    Parameters
+    ----------
+    plant : ndarray, shape (N, N_PLANT)
+        Plant rows (:mod:`fricbench.axis.plant` layout); their sample time, substeps and
+        quantisation are set from ``ts``, ``n_sub`` and ``quant``.
+    a : ndarray, shape (N, na)
+        Law's recursion coefficients on ``u[k-1] .. u[k-na]``.
+    c : ndarray, shape (N, nc)
+        Law's feedback coefficients on ``y_fb[k] .. y_fb[k-nc+1]``.
+    r : ndarray, shape (N, K)
+        Reference part of the law's output.
+    t : ndarray, shape (K,)
+        Sample times from the start of the run, s.
+    ts : float
+        Sample time, s.
+    n_sub : int
+        Plant substeps per sample.
+    x0, v0 : float
+        Initial motor position and velocity.
+    u_init : ndarray, shape (N, na)
+        Law's output history ``u[-1] .. u[-na]``.
+    y_init : ndarray, shape (nc,)
+        Feedback history before the run, ``y_fb[-1], y_fb[-2], ...``.
+    w : ndarray, shape (K,), optional
+        Injected effort added to the law's output.
+    noise : ndarray, shape (K,), optional
+        Measurement noise added to the fed-back and the logged position.
+    quant : float
+        Quantisation step of both sensors (0: none).
+
+    Returns
+    -------
+    y : ndarray, shape (N, K)
+        Logged position (NaN after a divergence).
+    u : ndarray, shape (N, K)
+        Law's output (effort).
+    status : ndarray of int64, shape (N,)
+        0 when the row stayed finite, 1 when it diverged.
+    """
+    P = np.array(np.atleast_2d(plant), dtype=float)
+    if P.shape[1] != N_PLANT:
+        raise ValueError(f"plant: expected rows of {N_PLANT} plant parameters, got shape "
+                         f"{P.shape}")
+    P[:, PL.TS] = ts
+    P[:, PL.NSUB] = n_sub
+    P[:, PL.QUANT] = quant
+    n_rows, n = P.shape[0], r.shape[-1]
+    A = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(a), (n_rows, np.shape(a)[-1])),
+                             dtype=float)
+    C = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(c), (n_rows, np.shape(c)[-1])),
+                             dtype=float)
+    R = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(r), (n_rows, n)), dtype=float)
+    U0 = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(u_init),
+                                              (n_rows, A.shape[1])), dtype=float)
+    ww = np.zeros(n) if w is None else np.ascontiguousarray(w, dtype=float)
+    nn = np.zeros(n) if noise is None else np.ascontiguousarray(noise, dtype=float)
+    Y = np.empty((n_rows, n))
+    U = np.empty((n_rows, n))
+    status = np.zeros(n_rows, dtype=np.int64)
+    _run_batch(P, A, C, R, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
+               np.ascontiguousarray(y_init, dtype=float), nn, Y, U, status)
+    return Y, U, status
+
+
+def simulate_one(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray,
+                 t: np.ndarray, ts: float, **kw: object) -> tuple[np.ndarray, np.ndarray]:
+    """Single-row convenience wrapper of :func:`simulate_batch`; returns ``(y, u)``."""
+    y, u, _ = simulate_batch(np.atleast_2d(plant), np.atleast_2d(a), np.atleast_2d(c),
+                             np.atleast_2d(r), t, ts, **kw)  # type: ignore[arg-type]
+    return y[0], u[0]

@@ -1,0 +1,374 @@
+"""The servo feed axis's plant: actuator, mechanics, effects and sensor, without a controller.
+
+This is the one copy of the axis physics. Two controller drivers call it, as python-control's
+``nlsys`` separates a system's update function from the law that closes the loop:
+
+* the position/velocity cascade of :mod:`fricbench.axis.kernel` (the environments, the native
+  vector env, ``simulate``, the benchmark);
+* any identified linear discrete law, :mod:`fricbench.axis.linear_law` (the diagnosis, the
+  ``greybox`` predictor and ``greybox-precomp``).
+
+One sample of period ``Ts`` (zero-order hold on the actuator command)::
+
+    i_app  = sat_imax(i_cmd[k - d])                                   delay d, saturation
+    M dv/dt = Kt i_app - (B + fv_dir) v - F_f(x, v) - f0 - F_cog(x)    n_sub substeps
+    y_fb   = Q(x or x_table) + n ,  y = Q(x_table) + n                 sensor
+    x_table = play_beta(x) + d_inf (1 - exp(-t / tau))                 backlash, thermal drift
+
+with the friction level in the direction ``sigma = sgn(v)``, scaled along the stroke::
+
+    s(x)     = max(1 + g (x - x_c) + a sin(2 pi x / P) + b cos(2 pi x / P), 0)
+    fc_dir   = max(fc + sigma dfc / 2, 0) ,  fs_dir = fc_dir + fs_excess
+    F_f      = s(x) sigma [fc_dir + (fs_dir - fc_dir) exp(-(|v|/vs)^delta)]   static laws
+    F_cog    = A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)
+    fv_dir   = fv + sigma dB / 2
+
+Static laws use the implicit update of Kikuuwe et al. (2005), so that stiction holds exactly;
+LuGre and Dahl integrate their bristle state exactly for a velocity frozen over a substep.
+
+The plant row (columns below) is the union of what the environments and the diagnosis need.
+Everything is in one consistent set of units: SI for the environments; the diagnosis may use
+an effort unit for forces (``Kt = 1``) or a unit mass (forces become accelerations). A second
+(compliant) mass would add its columns and state entries here and a second branch in
+:func:`advance`; the drivers would not change.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from fricbench.friction.laws import (
+    KIND_DAHL,
+    KIND_LUGRE,
+    KIND_STATIC,
+    stribeck_level,
+    stribeck_level_taylor,
+)
+
+# Fast-math without the no-NaN/no-inf assumptions, so that the divergence checks stay valid:
+# reciprocals, fused multiply-add and reassociation change results by rounding only.
+FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
+
+# -- plant row layout ---------------------------------------------------------------------------
+(TS, NSUB, M, B, KT, IMAX, DELAY, FKIND, FC, DFC, FS_EXCESS, VS, DELTA, FV, DB, SIGMA0, SIGMA1,
+ OFFSET, COG_SIN, COG_COS, COG_PERIOD, PD_GRAD, PD_SIN, PD_COS, PD_PERIOD, PD_CENTER,
+ BACKLASH, TH_AMP, TH_TAU, QUANT, NOISE, MEAS_TABLE) = range(32)
+N_PLANT = 32
+PLANT_NAMES = (
+    "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
+    "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
+    "cog_sin", "cog_cos", "cog_period", "pd_gradient", "pd_sin", "pd_cos", "pd_period",
+    "pd_center", "backlash", "thermal_amplitude", "thermal_tau", "quantization", "noise_std",
+    "measure_table",
+)
+
+# -- plant state layout (the first entries of a driver's state row) -----------------------------
+S_X, S_V, S_XPLAY, S_Z = 0, 1, 2, 3
+DELAY_MAX = 16
+
+
+def default_row(mass: float = 1.0, damping: float = 0.0, ts: float = 1.0e-3,
+                n_sub: int = 1) -> np.ndarray:
+    """A plant row with every effect off: no friction, no actuator limits, an ideal sensor.
+
+    Parameters
+    ----------
+    mass : float
+        Moving mass (kg, or 1 for a unit mass).
+    damping : float
+        Viscous damping ``B`` (force per m/s).
+    ts : float
+        Sample time, s.
+    n_sub : int
+        Mechanics substeps per sample.
+
+    Returns
+    -------
+    ndarray, shape (N_PLANT,)
+    """
+    p = np.zeros(N_PLANT)
+    p[TS] = ts
+    p[NSUB] = n_sub
+    p[M] = mass
+    p[B] = damping
+    p[KT] = 1.0
+    p[IMAX] = np.inf
+    p[FKIND] = KIND_STATIC
+    p[VS] = 1.0e-3
+    p[DELTA] = 2.0
+    p[COG_PERIOD] = 1.0
+    p[PD_PERIOD] = 1.0
+    p[TH_TAU] = 1.0
+    return p
+
+
+class Plant(NamedTuple):
+    """Per-axis constants of a plant row, unpacked once per run (registers, not array loads)."""
+
+    h: float
+    n_sub: int
+    m: float
+    b: float
+    kt: float
+    i_max: float
+    delay: int
+    kind: int
+    fc: float
+    dfc: float
+    fs_excess: float
+    vs: float
+    inv_vs: float
+    delta: float
+    fv: float
+    db: float
+    inv_pos: float
+    inv_neg: float
+    sigma0: float
+    sigma1: float
+    offset: float
+    cog_a: float
+    cog_b: float
+    cog_k: float
+    pd_g: float
+    pd_a: float
+    pd_b: float
+    pd_k: float
+    pd_xc: float
+    backlash: float
+    th_amp: float
+    th_tau: float
+    quant: float
+    noise: float
+    meas_table: bool
+
+
+def constants(p: np.ndarray) -> Plant:
+    """Unpack plant row ``p`` into the constants the substep uses."""
+    n_sub = int(p[NSUB])
+    h = p[TS] / n_sub
+    m = p[M]
+    visc = p[B] + p[FV]
+    # M_eff = M + h (B + fv_dir): the implicit update's effective mass in each direction
+    inv_pos = 1.0 / (m + h * max(visc + 0.5 * p[DB], 0.0))
+    inv_neg = 1.0 / (m + h * max(visc - 0.5 * p[DB], 0.0))
+    # no Stribeck hump (or vs <= 0): plain Coulomb, and the substep skips the exponential
+    inv_vs = 1.0 / p[VS] if (p[VS] > 0.0 and p[FS_EXCESS] != 0.0) else 0.0
+    return Plant(h, n_sub, m, p[B], p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
+                 p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
+                 p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS],
+                 2.0 * math.pi / p[COG_PERIOD], p[PD_GRAD], p[PD_SIN], p[PD_COS],
+                 2.0 * math.pi / p[PD_PERIOD], p[PD_CENTER], p[BACKLASH], p[TH_AMP], p[TH_TAU],
+                 p[QUANT], p[NOISE], p[MEAS_TABLE] > 0.5)
+
+
+def friction_scale(c: Plant, x: float) -> float:
+    """Position-dependent factor ``s(x)`` on the friction levels (never negative)."""
+    # s(x) = 1 + g (x - x_c) + a sin(2 pi x / P) + b cos(2 pi x / P)
+    s = 1.0 + c.pd_g * (x - c.pd_xc)
+    if c.pd_a != 0.0 or c.pd_b != 0.0:
+        ph = c.pd_k * x
+        s += c.pd_a * math.sin(ph) + c.pd_b * math.cos(ph)
+    return max(s, 0.0)
+
+
+def levels(c: Plant, x: float, sigma: float) -> tuple[float, float]:
+    """Coulomb and static friction levels in direction ``sigma`` at position ``x``."""
+    scale = friction_scale(c, x)
+    fc_dir = max(c.fc + 0.5 * sigma * c.dfc, 0.0)
+    return scale * fc_dir, scale * (fc_dir + c.fs_excess)
+
+
+def position_force(c: Plant, x: float) -> float:
+    """Force opposing the motor that depends on position only: offset and cogging."""
+    f = c.offset
+    if c.cog_a != 0.0 or c.cog_b != 0.0:
+        # F_cog = A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)
+        ph = c.cog_k * x
+        f += c.cog_a * math.sin(ph) + c.cog_b * math.cos(ph)
+    return f
+
+
+def _mechanics(c: Plant, x: float, v: float, z: float,
+               f_ext: float) -> tuple[float, float, float]:
+    """One substep of ``M dv/dt = f_ext - (B + fv) v - F_f``: returns ``(v_new, z_new, F_f)``."""
+    h = c.h
+    if c.kind == KIND_STATIC:
+        # Kikuuwe: v+ = v* - h sgn(v*) g(|v+|) / M_eff with v* = (M v + h f_ext) / M_eff,
+        # M_eff = M + h (B + fv_dir); stick (v+ = 0) when |v*| <= h F_s / M_eff
+        mom = c.m * v + h * f_ext
+        if mom > 0.0:
+            sigma = 1.0
+            inv_meff = c.inv_pos
+        else:
+            sigma = -1.0
+            inv_meff = c.inv_neg
+        h_inv_meff = h * inv_meff
+        lo, hi = levels(c, x, sigma)
+        v_star = mom * inv_meff
+        speed = abs(v_star)
+        if speed <= h_inv_meff * max(lo, hi):
+            v_new = 0.0
+        else:
+            level, slope, curv = stribeck_level_taylor(speed, lo, hi, c.inv_vs, c.delta)
+            v_new = v_star - sigma * (level * h_inv_meff)
+            if v_new * sigma < 0.0:
+                v_new = 0.0
+            elif slope != 0.0:
+                # one midpoint correction of the velocity-dependent level, 2nd-order accurate
+                # in sliding where the Stribeck curve changes within a few substeps; the level
+                # at the midpoint speed comes from its Taylor expansion about |v*| (one exp per
+                # substep, not two; the midpoint is a fraction of vs away)
+                v_mid = 0.5 * (abs(v_new) + (abs(v) if v * sigma > 0.0 else 0.0))
+                dv = v_mid - speed
+                level_mid = level + dv * (slope + 0.5 * curv * dv)
+                level_mid = min(max(level_mid, min(lo, hi)), max(lo, hi))
+                v_new = v_star - sigma * (level_mid * h_inv_meff)
+                if v_new * sigma < 0.0:
+                    v_new = 0.0
+        # F_f = (M v + h f_ext - M v+) / h - B v+
+        f_fric = c.m * (v - v_new) * (1.0 / h) + f_ext - c.b * v_new
+        return v_new, z, f_fric
+    sigma_v = 1.0 if v >= 0.0 else -1.0
+    visc = c.fv + 0.5 * sigma_v * c.db
+    damping = max(c.b + visc, 0.0)
+    s1 = c.sigma1 if c.kind == KIND_LUGRE else 0.0
+    lo, hi = levels(c, x, sigma_v)
+    g = lo if c.kind == KIND_DAHL else stribeck_level(abs(v), lo, hi, c.vs, c.delta)
+    # dz/dt = v - sigma0 |v| z / g(v): exact for v frozen over the substep (stable for any h)
+    if v != 0.0 and g > 0.0:
+        z_ss = math.copysign(g / c.sigma0, v)
+        z_new = z_ss + (z - z_ss) * math.exp(-c.sigma0 * abs(v) * h / g)
+    else:
+        z_new = z + v * h
+    rate = (z_new - z) / h
+    # F = sigma0 z + sigma1 dz/dt + fv v; the sigma1 v part of dz/dt is taken implicitly
+    f_bristle = c.sigma0 * z_new + s1 * (rate - v)
+    v_new = (c.m * v + h * (f_ext - f_bristle)) / (c.m + h * (damping + s1))
+    return v_new, z_new, f_bristle + s1 * v_new + visc * v_new
+
+
+def actuate(c: Plant, buf: np.ndarray, base: int, i_cmd: float) -> tuple[float, int]:
+    """Delay and saturate the actuator command.
+
+    ``buf[base:base + delay]`` holds the commands still in transit (newest first). Returns the
+    applied command and the side it was clipped on (``+1``, ``-1``, or 0).
+    """
+    if c.delay > 0:
+        i_app = buf[base + c.delay - 1]
+        for j in range(c.delay - 1, 0, -1):
+            buf[base + j] = buf[base + j - 1]
+        buf[base] = i_cmd
+    else:
+        i_app = i_cmd
+    if i_app > c.i_max:
+        return c.i_max, 1
+    if i_app < -c.i_max:
+        return -c.i_max, -1
+    return i_app, 0
+
+
+def advance(c: Plant, x: float, v: float, z: float, x_play: float,
+            f_motor: float) -> tuple[float, float, float, float, float]:
+    """Advance the mechanics over one sample (``n_sub`` substeps, zero-order hold on the force).
+
+    Returns ``(x, v, z, x_play, F_f)``: motor position and velocity, bristle state, the
+    position after the transmission's play, and the mean friction force over the sample.
+    """
+    h = c.h
+    f_sum = 0.0
+    for _ in range(c.n_sub):
+        f_ext = f_motor - position_force(c, x)
+        v_new, z, f_fric = _mechanics(c, x, v, z, f_ext)
+        # trapezoidal position: exact when the velocity changes linearly over h
+        x += 0.5 * h * (v + v_new)
+        v = v_new
+        f_sum += f_fric
+        if c.backlash > 0.0:
+            # play operator: the table follows only once the lost motion is taken up
+            if x - x_play > 0.5 * c.backlash:
+                x_play = x - 0.5 * c.backlash
+            elif x - x_play < -0.5 * c.backlash:
+                x_play = x + 0.5 * c.backlash
+        else:
+            x_play = x
+    return x, v, z, x_play, f_sum / c.n_sub
+
+
+def sense(c: Plant, x_motor: float, x_play: float, t: float,
+          noise: float) -> tuple[float, float]:
+    """Feedback reading and logged (table) reading at time ``t``; ``noise`` in position units."""
+    drift = 0.0
+    if c.th_amp != 0.0:
+        # d(t) = d_inf (1 - exp(-t / tau))
+        drift = c.th_amp * (1.0 - math.exp(-t / c.th_tau))
+    x_table = x_play + drift
+    x_sensor = x_table if c.meas_table else x_motor
+    q = c.quant
+    if q > 0.0:
+        x_sensor = q * math.floor(x_sensor / q + 0.5)
+        x_table = q * math.floor(x_table / q + 0.5)
+    return x_sensor + noise, x_table + noise
+
+
+def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
+    c = constants(p)
+    for k in range(x.shape[0]):
+        vk = v[k]
+        f = position_force(c, x[k])
+        if vk != 0.0:
+            sigma = 1.0 if vk > 0.0 else -1.0
+            damp = max(c.b + c.fv + 0.5 * sigma * c.db, 0.0)
+            lo, hi = levels(c, x[k], sigma)
+            level = lo if c.inv_vs == 0.0 else stribeck_level(abs(vk), lo, hi, c.vs, c.delta)
+            f += damp * vk + sigma * level
+        out[k] = f
+
+
+constants = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(constants)
+friction_scale = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(friction_scale)
+levels = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(levels)
+position_force = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(position_force)
+_mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
+actuate = numba.njit(cache=True, inline="always")(actuate)
+advance = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance)
+sense = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(sense)
+_sliding_force = numba.njit(cache=True)(_sliding_force)
+
+
+def sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Force of the plant opposing the motor, ``(B + fv) v + F_f + f0 + F_cog``, while sliding.
+
+    The force law of :func:`advance` at a known motion (at ``v = 0`` only the position forces;
+    friction then takes whatever value holds the axis, which an inverse model cannot know).
+    Used by the inverse-dynamics effort model ``u = M a + sliding_force(x, v)``.
+
+    Parameters
+    ----------
+    p : ndarray, shape (N_PLANT,)
+        Plant row.
+    x, v : ndarray, shape (K,)
+        Position (m) and velocity (m/s).
+
+    Returns
+    -------
+    ndarray, shape (K,)
+    """
+    out = np.empty(np.shape(x))
+    _sliding_force(np.ascontiguousarray(p, dtype=float), np.ascontiguousarray(x, dtype=float),
+                   np.ascontiguousarray(v, dtype=float), out)
+    return out
+
+
+__all__ = [
+    "DELAY_MAX", "FASTMATH", "N_PLANT", "PLANT_NAMES", "Plant", "actuate", "advance",
+    "constants", "default_row", "friction_scale", "levels", "position_force", "sense",
+    "sliding_force",
+    "TS", "NSUB", "M", "B", "KT", "IMAX", "DELAY", "FKIND", "FC", "DFC", "FS_EXCESS", "VS",
+    "DELTA", "FV", "DB", "SIGMA0", "SIGMA1", "OFFSET", "COG_SIN", "COG_COS", "COG_PERIOD",
+    "PD_GRAD", "PD_SIN", "PD_COS", "PD_PERIOD", "PD_CENTER", "BACKLASH", "TH_AMP", "TH_TAU",
+    "QUANT", "NOISE", "MEAS_TABLE", "KIND_STATIC", "KIND_LUGRE", "KIND_DAHL",
+]
