@@ -15,10 +15,12 @@ Conventions (scikit-learn / stable-baselines3):
   :class:`NotFittedError`;
 * the public ``fit``/``predict`` validate the data once, subclasses write only the kernels
   ``_fit(runs, ts)`` and ``_predict_position(x_ref)``;
-* a saved predictor is one zip file holding ``config.json`` (format version, class, constructor
-  arguments) and ``weights.pt`` (a ``state_dict`` of tensors, read back with
-  ``torch.load(..., weights_only=True)``). A file of another format version, with tensors of the
-  wrong shape, or not a predictor file at all raises :class:`PredictorFileError` naming it.
+* a saved predictor is one zip file holding ``config.json`` (format version, registered
+  predictor id, constructor arguments) and ``weights.pt`` (a ``state_dict`` of floating
+  tensors, read back with ``torch.load(..., weights_only=True)``). Loading imports nothing the
+  file names, and checks sizes before inflating anything. A file of another format version,
+  naming an unregistered class, with tensors of the wrong dtype or shape, too large, or not a
+  predictor file at all raises :class:`PredictorFileError` naming the file and the field.
 """
 
 from __future__ import annotations
@@ -39,7 +41,15 @@ import numpy as np
 import torch
 
 from fricbench._atomic import atomic_write
-from fricbench.registry import load_entry_point
+from fricbench._safe_load import (
+    MAX_MODEL_BYTES,
+    UnsafeFileError,
+    load_tensors,
+    parse_json,
+    read_file,
+    read_members,
+)
+from fricbench.registry import RegistryEntry
 from fricbench.sysid.friction_error import find_events
 from fricbench.trajectories.base import Reference
 
@@ -269,13 +279,26 @@ class Predictor(ABC):
 
     # -- persistence --------------------------------------------------------------------------
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Save constructor arguments and learned weights to one file (written atomically)."""
+        """Save constructor arguments and learned weights to one file (written atomically).
+
+        The file names the predictor by its registered id (see :func:`_registered_id`), never
+        by a module path.
+
+        Raises
+        ------
+        NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            The class is not registered in ``predictor_registry`` (its file could not be
+            loaded back).
+        """
         self._check_fitted()
+        params = _to_json(self.get_params())
         config = {
             "format": _FORMAT_NAME,
             "version": FORMAT_VERSION,
-            "class": f"{type(self).__module__}:{type(self).__qualname__}",
-            "params": _to_json(self.get_params()),
+            "class": _registered_id(type(self), params),
+            "params": params,
         }
         state = dict(self._state())
         state["ts_"] = torch.tensor(self.ts_, dtype=torch.float64)
@@ -294,49 +317,58 @@ class Predictor(ABC):
         Called on :class:`Predictor`, returns whatever class the file holds; called on a
         subclass, the file must hold that subclass.
 
+        The file is data only: its ``"class"`` field must be a registered predictor id (or,
+        in files written before ids were stored, exactly the ``"module:Class"`` entry point a
+        registered id names); no module named by the file is ever imported. The archive must
+        hold exactly ``config.json`` and ``weights.pt``, declaring at most
+        :data:`~fricbench._safe_load.MAX_MODEL_BYTES` uncompressed; every tensor must be a
+        dense floating tensor of the shape the class expects.
+
         Raises
         ------
         PredictorFileError
-            Missing or corrupt file, another format or version, another class, constructor
-            arguments the class rejects, or weights of the wrong names or shapes.
+            Missing, oversized or corrupt file, another format or version, an unregistered
+            or foreign class, constructor arguments the class rejects, or weights of the wrong
+            names, dtypes or shapes. The message names the file and the field.
         """
         path = Path(path)
         try:
-            with zipfile.ZipFile(path) as zf:
-                config = json.loads(zf.read("config.json"))
-                raw = zf.read("weights.pt")
+            members = read_members(read_file(path, MAX_MODEL_BYTES), str(path),
+                                   ("config.json", "weights.pt"))
+            config = parse_json(members["config.json"], f"{path}: config.json")
         except FileNotFoundError:
             raise PredictorFileError(f"{path}: no such file") from None
-        except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise PredictorFileError(f"{path}: not a fricbench predictor file ({exc})") from None
+        except UnsafeFileError as exc:
+            raise PredictorFileError(str(exc)) from None
         fmt = config.get("format") if isinstance(config, dict) else None
         if not isinstance(config, dict) or fmt != _FORMAT_NAME:
-            raise PredictorFileError(f"{path}: not a fricbench predictor file (format {fmt!r})")
-        if config.get("version") != FORMAT_VERSION:
-            raise PredictorFileError(f"{path}: format version {config.get('version')!r}, this "
-                                     f"fricbench reads version {FORMAT_VERSION}")
-        try:
-            klass = load_entry_point(str(config.get("class")))
-        except (ImportError, ValueError) as exc:
-            raise PredictorFileError(f"{path}: unknown predictor class ({exc})") from None
-        if not (isinstance(klass, type) and issubclass(klass, Predictor)):
-            raise PredictorFileError(f"{path}: {config.get('class')!r} is not a Predictor")
+            raise PredictorFileError(f"{path}: not a fricbench predictor file (config.json "
+                                     f"format={_short(fmt)}; expected {_FORMAT_NAME!r})")
+        version = config.get("version")
+        if version != FORMAT_VERSION or isinstance(version, bool):
+            raise PredictorFileError(f"{path}: config.json: format version {_short(version)}, "
+                                     f"this fricbench reads version {FORMAT_VERSION}")
+        klass = _resolve_class(path, config.get("class"))
         if cls is not Predictor and not issubclass(klass, cls):
             raise PredictorFileError(f"{path}: holds a {klass.__name__}, not a {cls.__name__}")
         try:
             obj = klass(**_from_json(klass, config.get("params", {})))
-        except (TypeError, ValueError) as exc:
-            raise PredictorFileError(f"{path}: bad constructor arguments ({exc})") from None
+        except (TypeError, ValueError, KeyError) as exc:
+            raise PredictorFileError(f"{path}: config.json params: bad constructor arguments "
+                                     f"for {klass.__name__} ({exc})") from None
         try:
-            state = torch.load(io.BytesIO(raw), weights_only=True)
-        except Exception as exc:  # torch raises several unrelated types on corrupt input
-            raise PredictorFileError(f"{path}: weights.pt is unreadable ({exc})") from None
-        if not isinstance(state, dict) or "ts_" not in state or not all(
-                isinstance(v, torch.Tensor) for v in state.values()):
-            raise PredictorFileError(f"{path}: weights.pt is not a state_dict of tensors")
-        ts = float(state.pop("ts_"))
+            state = load_tensors(members["weights.pt"], f"{path}: weights.pt")
+        except UnsafeFileError as exc:
+            raise PredictorFileError(str(exc)) from None
+        ts_t = state.pop("ts_", None)
+        if ts_t is None or ts_t.shape != ():
+            shape = None if ts_t is None else tuple(ts_t.shape)
+            raise PredictorFileError(f"{path}: weights.pt: tensor 'ts_' (sample time) has "
+                                     f"shape {shape}; expected a scalar, shape ()")
+        ts = float(ts_t)
         if not (math.isfinite(ts) and ts > 0):
-            raise PredictorFileError(f"{path}: stored sample time {ts!r} is not positive")
+            raise PredictorFileError(f"{path}: weights.pt: tensor 'ts_' (sample time) is "
+                                     f"{ts!r}; expected a positive number of seconds")
         expected = obj._expected_shapes(state)
         if expected is not None:
             missing = sorted(set(expected) - set(state))
@@ -347,7 +379,8 @@ class Predictor(ABC):
             for name, shape in expected.items():
                 if tuple(state[name].shape) != tuple(shape):
                     raise PredictorFileError(
-                        f"{path}: tensor {name!r} has shape {tuple(state[name].shape)} but "
+                        f"{path}: weights.pt: tensor {name!r} has shape "
+                        f"{tuple(state[name].shape)} but "
                         f"{klass.__name__} built from the file's config expects {tuple(shape)}")
         try:
             obj._set_state(state)
@@ -356,6 +389,80 @@ class Predictor(ABC):
                 from None
         obj.ts_ = ts
         return obj  # type: ignore[return-value]  # klass is cls or a subclass (checked above)
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters (values read from a file can be huge)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _entry_matches(entry: RegistryEntry, klass: type) -> bool:
+    """Whether ``entry`` names ``klass``, compared as strings: nothing is imported."""
+    if isinstance(entry.entry_point, str):
+        return entry.entry_point == f"{klass.__module__}:{klass.__qualname__}"
+    return entry.entry_point is klass
+
+
+def _registered_id(klass: type[Predictor], params: dict[str, Any]) -> str:
+    """The predictor id that a saved ``klass`` instance is filed under.
+
+    Of the registered ids whose entry point is ``klass``, the one whose registered defaults
+    all equal ``params`` and are the most numerous (``tf+lstm-phys`` for a ``TFLSTMPredictor``
+    with ``features="physical"``); the saved parameters are complete, so any of them loads
+    the same predictor.
+    """
+    from fricbench.predictors import predictor_registry
+
+    best: tuple[int, str] | None = None
+    for pid in predictor_registry.ids():
+        entry = predictor_registry.spec(pid)
+        if not _entry_matches(entry, klass):
+            continue
+        n = len(entry.kwargs)
+        if any(params.get(k) != _to_json({k: v})[k] for k, v in entry.kwargs.items()):
+            n = -1
+        if best is None or n > best[0]:
+            best = (n, pid)
+    if best is None:
+        raise ValueError(f"{klass.__module__}:{klass.__qualname__} is not registered in "
+                         "fricbench.predictors.predictor_registry: register it under an id "
+                         "to save it (a saved predictor names its class by id)")
+    return best[1]
+
+
+def _resolve_class(path: Path, value: Any) -> type[Predictor]:
+    """The class of a file's ``"class"`` field, through the registry only.
+
+    ``value`` must be a registered id, or exactly the string entry point of a registered id
+    (files written before ids were stored); the class is then loaded from the registry's own
+    entry point. A module named only by the file is never imported.
+    """
+    from fricbench.predictors import predictor_registry
+
+    if not isinstance(value, str):
+        raise PredictorFileError(f"{path}: config.json class={_short(value)}: expected a "
+                                 "registered predictor id")
+    entry: RegistryEntry | None
+    if value in predictor_registry:
+        entry = predictor_registry.spec(value)
+    else:  # a file written before ids were stored: the exact entry-point string of an id
+        entry = next((predictor_registry.spec(pid) for pid in predictor_registry.ids()
+                      if predictor_registry.spec(pid).entry_point == value), None)
+        if entry is None:
+            raise PredictorFileError(
+                f"{path}: config.json class={_short(value)} is not a registered predictor id "
+                f"(registered: {', '.join(predictor_registry.ids())}); a predictor file names "
+                "its class by id and is never used to import code")
+    try:
+        klass = entry.load()
+    except (ImportError, ValueError) as exc:  # a registered plug-in that is broken
+        raise PredictorFileError(f"{path}: predictor {entry.id!r} cannot be loaded "
+                                 f"({exc})") from None
+    if not (isinstance(klass, type) and issubclass(klass, Predictor)):
+        raise PredictorFileError(f"{path}: predictor {entry.id!r} is registered as "
+                                 f"{klass!r}, not a Predictor class")
+    return klass
 
 
 def _to_json(params: dict[str, Any]) -> dict[str, Any]:

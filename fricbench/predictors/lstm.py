@@ -517,7 +517,9 @@ class TFLSTMPredictor(Predictor):
         shapes: dict[str, tuple[int, ...]] = {
             "tf_num": (self.n_zeros + 1,), "tf_den": (self.n_poles + 1,), "v_break_": (),
             "feature_mean_": (n_feat,), "feature_scale_": (n_feat,), "target_scale_": ()}
-        for k, v in self._new_net().state_dict().items():
+        with torch.device("meta"):  # shapes only: a file's config must not allocate memory
+            net = self._new_net()
+        for k, v in net.state_dict().items():
             shapes[f"net.{k}"] = tuple(v.shape)
         if self.base == "greybox":
             for k, shape in self._new_base()._expected_shapes(state).items():
