@@ -7,9 +7,13 @@ A policy is two files side by side::
     rl-sac.pt     ``torch.save(state_dict)`` of :class:`PolicyMLP` (tensors only)
 
 The weights are loaded with ``torch.load(path, weights_only=True)``, which cannot execute
-code (unlike a stable-baselines3 zip, whose ``data`` entry is a cloudpickle). Any problem
-(missing file, bad JSON, wrong field, tensors that do not fit the declared network) raises
-:class:`~fricbench.compensators.base.CompensatorError` naming the file.
+code (unlike a stable-baselines3 zip, whose ``data`` entry is a cloudpickle); nothing the JSON
+names is imported. Sizes are checked before anything is allocated: the JSON is at most
+:data:`~fricbench._safe_load.MAX_JSON_BYTES`, the weights file and the network the JSON
+declares at most :data:`~fricbench._safe_load.MAX_MODEL_BYTES`. Any problem (missing or
+oversized file, bad JSON, wrong field, tensors of another dtype or shape than the declared
+network) raises :class:`~fricbench.compensators.base.CompensatorError` naming the file and
+the field.
 
 Inference runs the deterministic action of the trained agent::
 
@@ -22,7 +26,7 @@ with ``squash = tanh`` for SAC (its squashed Gaussian's mean) and ``clip(-1, 1)`
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +35,14 @@ import numpy as np
 import torch
 from torch import nn
 
+from fricbench._safe_load import (
+    MAX_JSON_BYTES,
+    MAX_MODEL_BYTES,
+    UnsafeFileError,
+    load_tensors,
+    parse_json,
+    read_file,
+)
 from fricbench.compensators.base import CompensatorError
 
 __all__ = ["PolicySpec", "PolicyMLP", "NumpyPolicy", "save_policy", "load_policy",
@@ -115,33 +127,49 @@ class PolicySpec:
 
         def need(ok: bool, name: str, expected: str) -> None:
             if not ok:
-                raise CompensatorError(f"{path}: {name}={data.get(name)!r}: expected {expected}")
+                raise CompensatorError(f"{path}: {name}={_short(data.get(name))}: expected "
+                                       f"{expected}")
 
         def is_int(v: Any) -> bool:
             return isinstance(v, int) and not isinstance(v, bool)
 
-        need(data["algo"] in ("sac", "ppo"), "algo", "'sac' or 'ppo'")
+        def is_real(v: Any) -> bool:  # finite; a huge JSON integer is no float
+            return (isinstance(v, (int, float)) and not isinstance(v, bool)
+                    and abs(v) <= 1e300 and bool(np.isfinite(float(v))))
+
+        def one_of(v: Any, choices: Collection[str]) -> bool:  # a list is no dict key
+            return isinstance(v, str) and v in choices
+
+        need(one_of(data["algo"], ("sac", "ppo")), "algo", "'sac' or 'ppo'")
         need(is_int(data["obs_dim"]) and data["obs_dim"] > 0, "obs_dim", "a positive integer")
         need(is_int(data["act_dim"]) and data["act_dim"] > 0, "act_dim", "a positive integer")
         arch = data["net_arch"]
         need(isinstance(arch, list) and len(arch) > 0 and all(is_int(w) and w > 0 for w in arch),
              "net_arch", "a non-empty list of positive integers")
-        need(data["activation"] in _ACTIVATIONS, "activation", f"one of {sorted(_ACTIVATIONS)}")
-        need(data["squash"] in _SQUASH, "squash", f"one of {_SQUASH}")
-        need(data["action_mode"] in ("force", "offset"), "action_mode", "'force' or 'offset'")
+        n_params = _n_params(data["obs_dim"], data["act_dim"], arch)
+        if n_params * 4 > MAX_MODEL_BYTES:
+            raise CompensatorError(
+                f"{path}: obs_dim={data['obs_dim']}, act_dim={data['act_dim']}, "
+                f"net_arch={_short(arch)} declare {n_params} parameters; expected at most "
+                f"{MAX_MODEL_BYTES // 4} (float32 weights of at most {MAX_MODEL_BYTES} bytes)")
+        need(one_of(data["activation"], _ACTIVATIONS), "activation",
+             f"one of {sorted(_ACTIVATIONS)}")
+        need(one_of(data["squash"], _SQUASH), "squash", f"one of {_SQUASH}")
+        need(one_of(data["action_mode"], ("force", "offset")), "action_mode",
+             "'force' or 'offset'")
         scale = data["action_scale"]
-        need(isinstance(scale, (int, float)) and not isinstance(scale, bool)
-             and np.isfinite(scale) and scale > 0, "action_scale", "a positive number")
+        need(is_real(scale) and scale > 0, "action_scale", "a positive number")
         need(isinstance(data["env_id"], str), "env_id", "a string")
         wname = data["weights"]
-        need(isinstance(wname, str) and wname != "" and "/" not in wname and "\\" not in wname,
-             "weights", "a file name next to the JSON")
+        need(isinstance(wname, str) and wname not in ("", ".", "..") and "/" not in wname
+             and "\\" not in wname and "\0" not in wname, "weights",
+             "a file name next to the JSON")
         norm = []
         for name in ("obs_mean", "obs_std"):
             val = data.get(name)
             if val is not None:
                 need(isinstance(val, list) and len(val) == data["obs_dim"]
-                     and all(isinstance(v, (int, float)) and np.isfinite(v) for v in val),
+                     and all(is_real(v) for v in val),
                      name, f"null or a list of {data['obs_dim']} finite numbers")
                 val = tuple(float(v) for v in val)
             norm.append(val)
@@ -156,6 +184,18 @@ class PolicySpec:
                    action_mode=data["action_mode"], action_scale=float(scale),
                    env_id=data["env_id"], weights=wname, obs_mean=norm[0], obs_std=norm[1],
                    training=training)
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters (values read from a file can be huge)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _n_params(obs_dim: int, act_dim: int, net_arch: Sequence[int]) -> int:
+    """Weights and biases of :class:`PolicyMLP` (exact integers: nothing is allocated)."""
+    widths = [obs_dim, *net_arch, act_dim]
+    return sum(w_in * w_out + w_out for w_in, w_out in zip(widths[:-1], widths[1:], strict=True))
 
 
 class PolicyMLP(nn.Module):
@@ -238,26 +278,20 @@ def load_policy(json_path: str | Path) -> NumpyPolicy:
     """
     json_path = Path(json_path)
     try:
-        text = json_path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CompensatorError(f"{json_path}: cannot read policy JSON: {exc}") from exc
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CompensatorError(f"{json_path}: not valid JSON: {exc}") from exc
+        data = parse_json(read_file(json_path, MAX_JSON_BYTES), str(json_path))
+    except FileNotFoundError as exc:
+        raise CompensatorError(f"{json_path}: cannot read policy JSON: no such file") from exc
+    except UnsafeFileError as exc:
+        raise CompensatorError(f"{exc} (policy JSON)") from None
     spec = PolicySpec.from_dict(data, str(json_path))
     wpath = json_path.parent / spec.weights
     try:
-        state = torch.load(wpath, map_location="cpu", weights_only=True)
+        state = load_tensors(read_file(wpath, MAX_MODEL_BYTES), str(wpath))
     except FileNotFoundError as exc:
         raise CompensatorError(f"{wpath}: policy weights not found (named by {json_path})") \
             from exc
-    except Exception as exc:  # noqa: BLE001 - torch raises many types for a corrupt file
-        raise CompensatorError(f"{wpath}: cannot load policy weights: "
-                               f"{type(exc).__name__}: {exc}") from exc
-    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor)
-                                              for v in state.values()):
-        raise CompensatorError(f"{wpath}: expected a state_dict of tensors")
+    except UnsafeFileError as exc:
+        raise CompensatorError(f"{exc} (policy weights named by {json_path})") from None
     module = PolicyMLP(spec.obs_dim, spec.act_dim, spec.net_arch, spec.activation)
     try:
         module.load_state_dict(state, strict=True)

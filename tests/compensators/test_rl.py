@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +101,7 @@ def test_mismatched_weights_names_file(tmp_path: Path) -> None:
     ("format_version", 99, "format_version"),
     ("activation", "gelu", "activation"),
     ("weights", "../p.pt", "weights"),
+    ("weights", "..", "weights"),
 ])
 def test_mismatched_spec_names_file(tmp_path: Path, field: str, value: object,
                                     match: str) -> None:
@@ -116,3 +118,61 @@ def test_shipped_policy_records_its_command(cid: str) -> None:
     assert cmd.startswith(f"fricbench train {cid} ")
     assert "--steps" in cmd and "--seed" in cmd
     assert data["training"]["steps"] > 0
+
+
+# -- hostile policy files (issue 14, items 2-3): sizes checked before allocation, every error a
+# -- CompensatorError naming the file and the field ----------------------------------------------
+
+def test_integer_weights_refused(tmp_path: Path) -> None:
+    path = _write(tmp_path)
+    state = torch.load(tmp_path / "p.pt", weights_only=True)
+    state["hidden.0.weight"] = (state["hidden.0.weight"] * 10).round().to(torch.int64)
+    torch.save(state, tmp_path / "p.pt")
+    with pytest.raises(CompensatorError, match=r"p\.pt: tensor 'hidden\.0\.weight' has dtype "
+                                               r"torch\.int64; expected a floating dtype"):
+        load_policy(path)
+
+
+def test_deeply_nested_json_refused(tmp_path: Path) -> None:
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(CompensatorError, match=r"deep\.json: JSON nested too deeply"):
+        load_policy(path)
+
+
+@pytest.mark.parametrize(("field", "value", "match"), [
+    ("activation", ["relu"], r"activation=\['relu'\]: expected one of"),
+    ("squash", {"a": 1}, r"squash=\{'a': 1\}: expected one of"),
+    ("action_scale", 10**400, r"action_scale=1000.*\.\.\.: expected a positive number"),
+    ("obs_mean", [10**400] * 17, r"obs_mean=.*: expected null or a list of 17 finite numbers"),
+])
+def test_malformed_fields_named(tmp_path: Path, field: str, value: object, match: str) -> None:
+    path = _write(tmp_path, **{field: value, "obs_std": [1.0] * 17})
+    with pytest.raises(CompensatorError, match=r"p\.json: " + match):
+        load_policy(path)
+
+
+def test_network_size_checked_before_allocation(tmp_path: Path) -> None:
+    # 10^12 parameters (4 TB) must be refused from the JSON alone
+    path = _write(tmp_path, obs_dim=10**6, net_arch=[10**6])
+    with pytest.raises(CompensatorError, match=r"p\.json: obs_dim=1000000, act_dim=1, "
+                                               r"net_arch=\[1000000\] declare 1000002000001 "
+                                               r"parameters; expected at most 67108864"):
+        load_policy(path)
+
+
+def test_oversized_and_special_files_refused(tmp_path: Path) -> None:
+    path = _write(tmp_path)
+    with open(tmp_path / "p.pt", "wb") as fh:
+        fh.truncate(256 * 2**20 + 1)  # sparse: no disk used
+    with pytest.raises(CompensatorError, match=r"p\.pt: 268435457 bytes; expected at most "
+                                               r"268435456 bytes"):
+        load_policy(path)
+    big = tmp_path / "big.json"
+    big.write_text(" " * (2**20 + 1))
+    with pytest.raises(CompensatorError, match=r"big\.json: 1048577 bytes; expected at most"):
+        load_policy(big)
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)  # reading it would wait for a writer forever
+    with pytest.raises(CompensatorError, match=r"fifo\.json: not a regular file"):
+        load_policy(fifo)
