@@ -13,11 +13,18 @@ from __future__ import annotations
 import difflib
 import importlib
 import importlib.metadata
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
-__all__ = ["DuplicateIdError", "Registry", "RegistryEntry", "UnknownIdError", "load_entry_point"]
+__all__ = [
+    "DuplicateIdError",
+    "Registry",
+    "RegistryEntry",
+    "UnknownIdError",
+    "did_you_mean",
+    "load_entry_point",
+]
 
 T = TypeVar("T")
 
@@ -31,6 +38,22 @@ class UnknownIdError(KeyError):
 
 class DuplicateIdError(ValueError):
     """Registering an id that already exists."""
+
+
+def did_you_mean(name: object, choices: Iterable[str], cutoff: float = 0.5) -> str:
+    """The hint appended to an "unknown name" message: ``"; did you mean 'a', 'b'?"`` or ``""``.
+
+    Parameters
+    ----------
+    name : object
+        The unknown name (non-strings are compared by their ``str``).
+    choices : iterable of str
+        The valid names.
+    cutoff : float
+        Similarity threshold of :func:`difflib.get_close_matches` (0..1).
+    """
+    close = difflib.get_close_matches(str(name), list(choices), n=3, cutoff=cutoff)
+    return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
 
 
 def load_entry_point(entry_point: str) -> Any:
@@ -145,10 +168,9 @@ class Registry(Generic[T]):
     # -- internals --------------------------------------------------------------------------
     def _unknown(self, id: object) -> UnknownIdError:
         names = list(self._entries)
-        close = difflib.get_close_matches(str(id), names, n=3, cutoff=0.5)
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         return UnknownIdError(
-            f"unknown {self.kind} id {id!r}{hint} (registered: {', '.join(sorted(names))})"
+            f"unknown {self.kind} id {id!r}{did_you_mean(id, names)} "
+            f"(registered: {', '.join(sorted(names))})"
         )
 
     def _ensure_plugins(self) -> None:
