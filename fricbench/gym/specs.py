@@ -1,31 +1,75 @@
 """Environment specs: one TOML file per env id in ``envs/``, registered with Gymnasium.
 
 A spec file holds ``id`` (``fricbench/Name-vN``), ``description``, ``benchmark`` (scored by
-``fricbench bench``, default true), ``fit_on`` (the env whose training setup compensators learn
-from, default itself: a different id makes the env a generalisation case), ``[axis]`` (sections
-``controller``, ``mechanics``, ``friction``, ``effects`` as in :meth:`Axis.from_dict`) and
-``[task]`` (:meth:`TaskConfig.from_dict`: trajectories, action, reward, observation, randomize).
-Dropping a new TOML file into ``envs/`` (or a folder named by ``FRICBENCH_ENV_PATH``) adds an
-environment.
+``fricbench bench``, a TOML boolean, default true), ``fit_on`` (the env whose training setup
+compensators learn from, default itself: a different id makes the env a generalisation case),
+``[axis]`` (sections ``controller``, ``mechanics``, ``friction``, ``effects`` as in
+:meth:`Axis.from_dict`) and ``[task]`` (:meth:`TaskConfig.from_dict`: trajectories, action,
+reward, observation, randomize). Dropping a new TOML file into ``envs/`` (or a folder named by
+``FRICBENCH_ENV_PATH``) adds an environment.
+
+Every spec is validated when it is read, not at ``reset``: types, ids and sizes. Each problem
+names the file, the key, the value and what was expected; unknown keys and ids come with a
+"did you mean". A malformed spec is skipped with one :class:`EnvSpecWarning` and every other
+env stays registered; ``fricbench list --check`` (:func:`check_specs`) reports every problem.
+
+The trajectories of a spec are checked by a dry run of their generators at the coarse sample
+time :data:`PROBE_TS` (ids, parameters, number of axes, length). At ``import fricbench`` this dry
+run is done for the specs on ``FRICBENCH_ENV_PATH`` only: the shipped specs are checked by the
+test suite and by ``fricbench list --check``, so the import does not get slower.
+
+Limits (module constants):
+
+* :data:`MAX_SPEC_BYTES`: size of a spec file.
+* :data:`MAX_TRAJECTORIES`: entries of ``task.trajectories``.
+* :data:`MAX_REFERENCE_SAMPLES`: reference samples of one episode on each trajectory of the set,
+  summed, at the axis's sample time. ``gym.make`` generates every reference of the set (a few
+  microseconds per sample), so this bounds it to seconds; at the default 1 ms it allows
+  1000 s of references (the shipped sets have at most 77 s).
 """
 
 from __future__ import annotations
 
+import inspect
+import json
+import math
 import os
+import re
+import reprlib
+import stat
 import tomllib
-from dataclasses import dataclass
+import warnings
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import MISSING, dataclass, fields, is_dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, cast
 
 import gymnasium as gym
+import numpy as np
 
-from fricbench.axis import Axis
-from fricbench.gym.task import TaskConfig
-from fricbench.registry import UnknownIdError
+from fricbench.axis import Axis, ControllerParams, Effects, MechanicsParams
+from fricbench.friction import FrictionModel, friction_registry
+from fricbench.gym.task import (
+    ObservationConfig,
+    Randomization,
+    RewardConfig,
+    TaskConfig,
+    TrajectoryChoice,
+    reference_for,
+)
+from fricbench.registry import UnknownIdError, did_you_mean
+from fricbench.trajectories import trajectory_registry
 
 __all__ = [
+    "MAX_REFERENCE_SAMPLES",
+    "MAX_SPEC_BYTES",
+    "MAX_TRAJECTORIES",
+    "PROBE_TS",
+    "EnvSpecError",
     "EnvSpecFile",
+    "EnvSpecWarning",
+    "check_specs",
     "env_ids",
     "load_spec",
     "make_env",
@@ -34,7 +78,60 @@ __all__ = [
     "spec_files",
 ]
 
+MAX_SPEC_BYTES = 1_000_000
+"""Largest spec file read, bytes."""
+MAX_TRAJECTORIES = 32
+"""Most entries in ``task.trajectories``."""
+MAX_REFERENCE_SAMPLES = 1_000_000
+"""Most reference samples of a trajectory set (one episode on each, at the axis's ``ts``)."""
+PROBE_TS = 0.1
+"""Sample time of the load-time dry run of the trajectory generators, s."""
+
 _SPECS: dict[str, EnvSpecFile] = {}
+_SEEN: set[str] = set()  # spec files already read by register_envs (registered or skipped)
+
+_TOP_KEYS = ("id", "description", "benchmark", "fit_on", "axis", "task")
+_AXIS_KEYS = ("controller", "mechanics", "friction", "effects")
+_ID = re.compile(r"fricbench/[A-Za-z0-9_.:-]+-v[0-9]+")
+_MAX_NAME = 200  # longest id or string value accepted
+_MAX_LIST = 1000  # longest array accepted as a trajectory parameter
+_MAX_SHOWN = 10  # problems spelled out in one message
+_NESTING = 100  # arrays/tables nested deeper than this are reported by line
+
+_short = reprlib.Repr()
+_short.maxstring = 60
+_short.maxother = 60
+_short.maxlevel = 2
+_short.maxlist = 6
+_short.maxdict = 4
+
+_T = TypeVar("_T")
+
+
+class EnvSpecError(ValueError):
+    """A malformed env spec file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The spec file.
+    problems : iterable of str
+        One message per problem, each naming the key, the value and what was expected.
+    """
+
+    def __init__(self, path: str | Path, problems: Iterable[str]) -> None:
+        self.path = str(path)
+        self.problems = list(problems)
+        shown = "; ".join(self.problems[:_MAX_SHOWN])
+        more = len(self.problems) - _MAX_SHOWN
+        super().__init__(f"{self.path}: {shown}" + (f"; and {more} more" if more > 0 else ""))
+
+    def __reduce__(self) -> tuple[type, tuple[str, list[str]]]:
+        return type(self), (self.path, self.problems)
+
+
+class EnvSpecWarning(UserWarning):
+    """A malformed env spec was skipped; the message names the file, the key and the problem."""
 
 
 @dataclass(frozen=True)
@@ -50,53 +147,447 @@ class EnvSpecFile:
     fit_on: str
 
 
-def load_spec(path: str | Path) -> EnvSpecFile:
-    """Parse and validate one TOML spec; errors name the file and the offending key."""
+# -- reading and checking one file -------------------------------------------------------------
+def load_spec(path: str | Path, *, check_trajectories: bool = True) -> EnvSpecFile:
+    """Parse and validate one TOML spec.
+
+    Parameters
+    ----------
+    path : str or Path
+        The spec file.
+    check_trajectories : bool
+        Also dry-run the trajectory generators (ids, parameters, axes, length; see the module
+        docstring). ``fit_on`` is checked against the other specs by :func:`register_envs`.
+
+    Returns
+    -------
+    EnvSpecFile
+
+    Raises
+    ------
+    EnvSpecError
+        Listing every problem found, each naming the key, the value and what was expected.
+    """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise ValueError(f"{path}: cannot read env spec: {exc}") from exc
-    unknown = set(data) - {"id", "description", "axis", "task", "benchmark", "fit_on"}
-    if unknown:
-        raise ValueError(f"{path}: unknown top-level keys {sorted(unknown)}")
+    data = _read(path)
+    problems: list[str] = []
+    _check_keys("", data, _TOP_KEYS, problems)
     env_id = data.get("id")
-    if not isinstance(env_id, str) or not env_id.startswith("fricbench/") or "-v" not in env_id:
-        raise ValueError(f"{path}: id={env_id!r}: expected 'fricbench/Name-vN'")
-    try:
-        axis = Axis.from_dict(data.get("axis", {}))
-        task = TaskConfig.from_dict(data.get("task", {}))
-    except (TypeError, ValueError, KeyError) as exc:
-        raise ValueError(f"{path}: {exc}") from exc
+    if not (isinstance(env_id, str) and _ID.fullmatch(env_id)):
+        problems.append(f"id={_show(env_id)}: expected a string 'fricbench/Name-vN'"
+                        if "id" in data else "id: missing; expected 'fricbench/Name-vN'")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        problems.append(f"description={_show(description)}: expected a string")
+    benchmark = data.get("benchmark", True)
+    if not isinstance(benchmark, bool):
+        problems.append(f"benchmark={_show(benchmark)}: expected true or false (a TOML boolean)")
     fit_on = data.get("fit_on", env_id)
-    if not isinstance(fit_on, str):
-        raise ValueError(f"{path}: fit_on={fit_on!r}: expected an env id")
-    return EnvSpecFile(env_id, str(data.get("description", "")), axis, task, str(path),
-                       bool(data.get("benchmark", True)), fit_on)
+    if "fit_on" in data and not (isinstance(fit_on, str) and _ID.fullmatch(fit_on)):
+        problems.append(f"fit_on={_show(fit_on)}: expected an env id 'fricbench/Name-vN'")
+    axis = _check_axis(data.get("axis", {}), problems)
+    task = _check_task(data.get("task", {}), axis, problems)
+    if task is not None and axis is not None and check_trajectories:
+        _probe_trajectories(task, axis, problems)
+    if problems or axis is None or task is None:
+        raise EnvSpecError(path, problems)
+    return EnvSpecFile(cast(str, env_id), description, axis, task, str(path), benchmark,
+                       cast(str, fit_on))
 
 
-def spec_files() -> list[Path]:
-    """The shipped specs (``fricbench/gym/specs`` -> the repository's ``envs/``) and any in
-    ``FRICBENCH_ENV_PATH`` (``os.pathsep``-separated folders)."""
+def _read(path: Path) -> dict[str, Any]:
+    """The TOML table of ``path``: a regular UTF-8 file of at most MAX_SPEC_BYTES."""
+    try:
+        if not stat.S_ISREG(path.stat().st_mode):
+            raise EnvSpecError(path, ["not a regular file"])
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_SPEC_BYTES + 1)
+    except OSError as exc:
+        raise EnvSpecError(path, [f"cannot read: {exc.strerror or exc}"]) from None
+    if len(raw) > MAX_SPEC_BYTES:
+        raise EnvSpecError(path, [f"file larger than {MAX_SPEC_BYTES} bytes (MAX_SPEC_BYTES)"])
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise EnvSpecError(path, [f"not UTF-8 text (byte {exc.start})"]) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise EnvSpecError(path, [f"invalid TOML: {exc}"]) from None
+    except RecursionError:
+        raise EnvSpecError(path, [f"invalid TOML: arrays or tables nested too deeply for the "
+                                  f"parser{_deep_place(text)}"]) from None
+
+
+def _deep_place(text: str) -> str:
+    """Where brackets first nest deeper than _NESTING: ``" (line N, key 'k')"``."""
+    depth = 0
+    for n, line in enumerate(text.splitlines(), 1):
+        for char in line:
+            depth += (char in "[{") - (char in "]}")
+            if depth > _NESTING:
+                key = line.split("=", 1)[0].strip() if "=" in line else ""
+                return f" (line {n}" + (f", key {_show(key)})" if key else ")")
+    return ""
+
+
+def _show(value: object) -> str:
+    """A short repr for messages (long strings and deep structures abbreviated)."""
+    return _short.repr(value)
+
+
+def _key(section: str, key: object) -> str:
+    name = key if isinstance(key, str) and len(key) <= 60 else _show(key)
+    return f"{section}.{name}" if section else str(name)
+
+
+def _check_keys(section: str, table: Mapping[str, Any], allowed: Iterable[str],
+                problems: list[str]) -> bool:
+    """Report each key of ``table`` not in ``allowed`` (with near matches); True if none."""
+    allowed = list(allowed)
+    unknown = [k for k in table if k not in allowed]
+    for k in unknown:
+        hint = did_you_mean(k, allowed) if len(k) <= _MAX_NAME else ""
+        problems.append(f"{_key(section, k)}: unknown key{hint}; expected one of "
+                        f"{', '.join(allowed)}")
+    return not unknown
+
+
+def _is_table(key: str, value: Any, problems: list[str]) -> bool:
+    if isinstance(value, dict):
+        return True
+    problems.append(f"{key}={_show(value)}: expected a table")
+    return False
+
+
+def _is_real(value: Any) -> bool:
+    """A TOML float, or a TOML integer (64-bit, so that ``float()`` of it cannot overflow)."""
+    if isinstance(value, bool):
+        return False
+    return isinstance(value, float) or isinstance(value, int) and -2**63 <= value < 2**63
+
+
+def _check_scalar(key: str, value: Any, default: Any, problems: list[str]) -> bool:
+    """A TOML scalar of the kind of ``default`` (number, string or boolean)."""
+    if isinstance(default, bool) or default is MISSING and isinstance(value, bool):
+        ok, need = isinstance(value, bool), "true or false"
+    elif isinstance(default, str) or default is MISSING and isinstance(value, str):
+        ok, need = isinstance(value, str) and len(value) <= _MAX_NAME, "a string"
+    else:
+        ok, need = _is_real(value), "a number"
+    if not ok:
+        problems.append(f"{key}={_show(value)}: expected {need}")
+    return ok
+
+
+def _prefixed(section: str, exc: BaseException) -> str:
+    """``exc``'s message with the section it concerns (``axis.controller.ts=...``)."""
+    msg = str(exc)
+    leaf = section.rsplit(".", 1)[-1]
+    if msg.startswith(leaf + "."):
+        msg = msg[len(leaf) + 1:]
+    return f"{section}.{msg}" if re.match(r"[A-Za-z_]\w*=", msg) else f"{section}: {msg}"
+
+
+def _check_section(section: str, value: Any, cls: object, build: Callable[..., _T],
+                   problems: list[str]) -> _T | None:
+    """Build one table with ``build(**value)`` after checking its keys and scalar types against
+    the dataclass ``cls``; None (problems recorded) if anything is wrong."""
+    if not _is_table(section, value, problems):
+        return None
+    ok = True
+    if is_dataclass(cls):
+        known = {f.name: f.default for f in fields(cls) if f.init}
+        ok = _check_keys(section, value, known, problems)
+        for k, v in value.items():
+            if k in known:
+                ok = _check_scalar(f"{section}.{k}", v, known[k], problems) and ok
+    if not ok:
+        return None
+    try:
+        return build(**value)
+    except (TypeError, ValueError) as exc:
+        problems.append(_prefixed(section, exc))
+        return None
+
+
+def _check_axis(value: Any, problems: list[str]) -> Axis | None:
+    """The ``[axis]`` table, built as :meth:`Axis.from_dict` does."""
+    if not _is_table("axis", value, problems):
+        return None
+    _check_keys("axis", value, _AXIS_KEYS, problems)
+    controller = _check_section("axis.controller", value.get("controller", {}),
+                                ControllerParams, ControllerParams, problems)
+    mechanics = _check_section("axis.mechanics", value.get("mechanics", {}), MechanicsParams,
+                               MechanicsParams, problems)
+    effects = _check_section("axis.effects", value.get("effects", {}), Effects, Effects,
+                             problems)
+    friction = _check_friction(value.get("friction", {"id": "stribeck"}), problems)
+    if controller is None or mechanics is None or effects is None or friction is None:
+        return None
+    return Axis(controller=controller, mechanics=mechanics, friction=friction, effects=effects)
+
+
+def _check_friction(value: Any, problems: list[str]) -> FrictionModel | None:
+    if not _is_table("axis.friction", value, problems):
+        return None
+    params = dict(value)
+    fid = params.pop("id", "stribeck")
+    ids = friction_registry.ids()
+    if not isinstance(fid, str) or fid not in ids:
+        hint = did_you_mean(fid, ids) if isinstance(fid, str) and len(fid) <= _MAX_NAME else ""
+        problems.append(f"axis.friction.id={_show(fid)}: unknown friction model{hint}; "
+                        f"expected one of {', '.join(ids)}")
+        return None
+    cls = friction_registry.spec(fid).load()
+    return _check_section("axis.friction", params, cls,
+                          lambda **kw: friction_registry.make(fid, **kw), problems)
+
+
+def _check_task(value: Any, axis: Axis | None, problems: list[str]) -> TaskConfig | None:
+    """The ``[task]`` table, built as :meth:`TaskConfig.from_dict` does."""
+    if not _is_table("task", value, problems):
+        return None
+    known = {f.name: f.default for f in fields(TaskConfig)}
+    ok = _check_keys("task", value, known, problems)
+    kw: dict[str, Any] = {}
+    for name in ("action", "action_scale"):
+        if name in value:
+            ok = _check_scalar(f"task.{name}", value[name], known[name], problems) and ok
+            kw[name] = value[name]
+    if "trajectories" in value:
+        kw["trajectories"] = _check_trajectories(value["trajectories"], problems)
+    for name, cls in (("observation", ObservationConfig), ("reward", RewardConfig)):
+        if name in value:
+            kw[name] = _check_section(f"task.{name}", value[name], cls, cls, problems)
+    if "randomize" in value:
+        kw["randomize"] = _check_randomize(value["randomize"], axis, problems)
+    if not ok or any(v is None for v in kw.values()):
+        return None
+    try:
+        return TaskConfig(**kw)
+    except (TypeError, ValueError) as exc:
+        problems.append(_prefixed("task", exc))
+        return None
+
+
+def _check_trajectories(value: Any, problems: list[str]) -> tuple[TrajectoryChoice, ...] | None:
+    """Shape and value types of ``task.trajectories`` (ids and parameters: the dry run)."""
+    key = "task.trajectories"
+    if not isinstance(value, list):
+        hint = f" (write {json.dumps([value])})" if isinstance(value, str) and len(value) < 60 \
+            else ""
+        problems.append(f"{key}={_show(value)}: expected an array of trajectory ids or tables "
+                        f"with an 'id'{hint}")
+        return None
+    if not value or len(value) > MAX_TRAJECTORIES:
+        problems.append(f"{key}: {len(value)} entries; expected 1 to {MAX_TRAJECTORIES} "
+                        "(MAX_TRAJECTORIES)")
+        return None
+    out: list[TrajectoryChoice] = []
+    n_problems = len(problems)
+    for i, item in enumerate(value):
+        k = f"{key}[{i}]"
+        if isinstance(item, str):
+            tid, params = item, {}
+        elif isinstance(item, dict):
+            params = dict(item)
+            tid = params.pop("id", None)
+        else:
+            problems.append(f"{k}={_show(item)}: expected a trajectory id or a table with an "
+                            "'id'")
+            continue
+        if not isinstance(tid, str) or not tid or len(tid) > _MAX_NAME:
+            problems.append(f"{k}.id={_show(tid)}: expected a trajectory id string")
+            continue
+        for p, v in params.items():
+            if p == "ts":
+                problems.append(f"{k}.ts: not settable here; the sample time is "
+                                "axis.controller.ts")
+            elif not (_is_real(v) or isinstance(v, bool)
+                      or isinstance(v, str) and len(v) <= _MAX_NAME
+                      or isinstance(v, list) and len(v) <= _MAX_LIST and all(map(_is_real, v))):
+                problems.append(f"{_key(k, p)}={_show(v)}: expected a number, a string, true or "
+                                f"false, or an array of at most {_MAX_LIST} numbers")
+        out.append(TrajectoryChoice(tid, params))
+    return tuple(out) if len(problems) == n_problems else None
+
+
+class _Corner:
+    """Stands in for the generator of :meth:`Randomization.sample`: every draw is the low (or
+    the high) end of its range."""
+
+    def __init__(self, high: bool) -> None:
+        self.high = high
+
+    def uniform(self, low: float, high: float) -> float:
+        return high if self.high else low
+
+
+def _check_randomize(value: Any, axis: Axis | None, problems: list[str]) -> Randomization | None:
+    """``task.randomize``: known friction parameters, ``[low, high]`` ranges, and a valid model
+    at both ends."""
+    key = "task.randomize"
+    if not _is_table(key, value, problems):
+        return None
+    n_problems = len(problems)
+    allowed = None
+    if axis is not None:
+        allowed = [*(k for k in axis.friction.to_dict() if k != "id"), "fs_ratio", "scale"]
+        _check_keys(key, value, allowed, problems)
+    ranges: dict[str, tuple[float, float]] = {}
+    for k, rng in value.items():
+        if not (isinstance(rng, list) and len(rng) == 2 and all(map(_is_real, rng))
+                and all(map(math.isfinite, rng)) and rng[0] <= rng[1]):
+            problems.append(f"{_key(key, k)}={_show(rng)}: expected [low, high], two finite "
+                            "numbers with low <= high")
+        elif allowed is None or k in allowed:
+            ranges[k] = (rng[0], rng[1])
+    randomization = Randomization(ranges)
+    if axis is not None:
+        for end in ("low", "high"):
+            try:
+                randomization.sample(axis, cast(np.random.Generator, _Corner(end == "high")))
+            except (TypeError, ValueError) as exc:
+                problems.append(f"{key}: the friction model at the {end} ends of the ranges is "
+                                f"invalid: {exc}")
+                break
+    return randomization if len(problems) == n_problems else None
+
+
+def _parameter_names(factory: Callable[..., Any]) -> list[str] | None:
+    """Keyword parameters of a trajectory generator (None if it takes ``**kwargs``)."""
+    try:
+        sig = inspect.signature(factory)
+    except (TypeError, ValueError):
+        return None
+    if any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
+        return None
+    return [n for n, p in sig.parameters.items()
+            if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and n != "ts"]
+
+
+def _probe_trajectories(task: TaskConfig, axis: Axis, problems: list[str]) -> None:
+    """Dry-run every trajectory generator at PROBE_TS: ids, parameters, axes and length."""
+    ts = axis.controller.ts
+    ids = trajectory_registry.ids()
+    total, n_axes = 0, None
+    for i, choice in enumerate(task.trajectories):
+        k = f"task.trajectories[{i}]"
+        if choice.id not in ids:
+            problems.append(f"{k}: unknown trajectory id {_show(choice.id)}"
+                            f"{did_you_mean(choice.id, ids)}; expected one of {', '.join(ids)}")
+            continue
+        try:
+            names = _parameter_names(trajectory_registry.spec(choice.id).load())
+        except ImportError as exc:
+            problems.append(f"{k}: trajectory {choice.id!r} cannot be loaded: {exc}")
+            continue
+        unknown = [p for p in choice.params if names is not None and p not in names]
+        for p in unknown:
+            problems.append(f"{_key(k, p)}: unknown parameter of trajectory {choice.id!r}"
+                            f"{did_you_mean(p, names or ())}; expected one of "
+                            f"{', '.join(names or ())}")
+        duration = choice.params.get("duration")
+        if isinstance(duration, (int, float)) and duration > MAX_REFERENCE_SAMPLES * ts:
+            problems.append(f"{k}.duration={duration!r}: expected at most "
+                            f"{MAX_REFERENCE_SAMPLES * ts:g} s ({MAX_REFERENCE_SAMPLES} samples "
+                            f"at ts={ts:g} s: MAX_REFERENCE_SAMPLES)")
+            continue
+        if unknown:
+            continue
+        try:
+            ref = reference_for(choice, PROBE_TS, np.random.default_rng(0))
+        except Exception as exc:  # noqa: BLE001 - any failure of a generator on these parameters
+            problems.append(_prefixed(k, exc))  # is a problem of this spec, reported as such
+            continue
+        if n_axes is not None and ref.n_axes != n_axes:
+            problems.append(f"{k}: a {ref.n_axes}-axis trajectory in a set of {n_axes}-axis "
+                            "trajectories; expected one number of axes")
+        n_axes = ref.n_axes if n_axes is None else n_axes
+        total += math.ceil(ref.duration / ts) + 1
+    if total > MAX_REFERENCE_SAMPLES:
+        problems.append(f"task.trajectories: {total} reference samples at ts={ts:g} s; expected "
+                        f"at most {MAX_REFERENCE_SAMPLES} (MAX_REFERENCE_SAMPLES)")
+
+
+# -- the set of spec files ---------------------------------------------------------------------
+def _shipped_files() -> list[Path]:
     shipped = resources.files("fricbench.gym").joinpath("specs")
-    files = sorted(Path(str(shipped)).glob("*.toml"))
+    return sorted(Path(str(shipped)).glob("*.toml"))
+
+
+def _user_files() -> list[Path]:
+    files: list[Path] = []
     for folder in filter(None, os.environ.get("FRICBENCH_ENV_PATH", "").split(os.pathsep)):
         files.extend(sorted(Path(folder).glob("*.toml")))
     return files
 
 
-def register_envs() -> list[str]:
-    """Register every spec with Gymnasium (idempotent); return the ids."""
-    for path in spec_files():
-        spec = load_spec(path)
-        if spec.id in _SPECS:
-            if _SPECS[spec.id].path != spec.path:
-                raise ValueError(f"env id {spec.id!r} defined twice: {_SPECS[spec.id].path} and "
-                                 f"{spec.path}")
+def spec_files() -> list[Path]:
+    """The shipped specs (``fricbench/gym/specs`` -> the repository's ``envs/``) and any in
+    ``FRICBENCH_ENV_PATH`` (``os.pathsep``-separated folders), in that order."""
+    return _shipped_files() + _user_files()
+
+
+def _load_all(paths: Iterable[Path], known: Mapping[str, EnvSpecFile],
+              check_trajectories: Callable[[Path], bool],
+              ) -> tuple[list[EnvSpecFile], list[EnvSpecError]]:
+    """Load ``paths`` in order next to the ``known`` specs: the good specs and the problems.
+
+    An id defined earlier (shipped specs come first) wins over a later duplicate; a ``fit_on``
+    must name a known or good spec.
+    """
+    good: dict[str, EnvSpecFile] = {}
+    problems: list[EnvSpecError] = []
+    for path in paths:
+        try:
+            spec = load_spec(path, check_trajectories=check_trajectories(path))
+        except EnvSpecError as exc:
+            problems.append(exc)
             continue
+        except Exception as exc:  # noqa: BLE001 - one spec file must never break the others
+            problems.append(EnvSpecError(path, [f"unexpected {type(exc).__name__}: {exc}"]))
+            continue
+        other = known.get(spec.id) or good.get(spec.id)
+        if other is not None:
+            if other.path != spec.path:
+                problems.append(EnvSpecError(path, [f"id={spec.id!r}: already defined by "
+                                                    f"{other.path}"]))
+            continue
+        good[spec.id] = spec
+    dropped = True
+    while dropped:  # a spec trained on a dropped one is dropped too
+        dropped = False
+        ids = [*known, *good]
+        for spec in list(good.values()):
+            if spec.fit_on not in ids:
+                problems.append(EnvSpecError(spec.path, [
+                    f"fit_on={spec.fit_on!r}: not a registered env id"
+                    f"{did_you_mean(spec.fit_on, ids)}"]))
+                del good[spec.id]
+                dropped = True
+    return list(good.values()), problems
+
+
+def register_envs() -> list[str]:
+    """Register every spec with Gymnasium (idempotent); return the ids.
+
+    Spec files are read once. A malformed one (or one whose id is already registered) is
+    skipped with an :class:`EnvSpecWarning` naming the file, the key and the problem.
+    """
+    new = [p for p in spec_files() if str(p) not in _SEEN]
+    if not new:
+        return sorted(_SPECS)
+    shipped = {str(p) for p in _shipped_files()}
+    specs, problems = _load_all(new, _SPECS, lambda p: str(p) not in shipped)
+    _SEEN.update(str(p) for p in new)
+    for exc in problems:
+        warnings.warn(f"{exc} (this env spec is skipped; 'fricbench list --check' reports "
+                      "every problem)", EnvSpecWarning, stacklevel=2)
+    for spec in specs:
         _SPECS[spec.id] = spec
-        single = spec.task.trajectories and all(
-            t.id != "circle" for t in spec.task.trajectories)
+        single = all(t.id != "circle" for t in spec.task.trajectories)
         gym.register(
             id=spec.id,
             entry_point="fricbench.gym.specs:make_env",
@@ -104,6 +595,19 @@ def register_envs() -> list[str]:
             kwargs={"spec_id": spec.id},
         )
     return sorted(_SPECS)
+
+
+def check_specs() -> list[EnvSpecError]:
+    """Validate every spec file with every check, the trajectory dry run included.
+
+    Registers nothing; this is ``fricbench list --check``.
+
+    Returns
+    -------
+    list of EnvSpecError
+        One per malformed file (empty when every spec is good).
+    """
+    return _load_all(spec_files(), {}, lambda p: True)[1]
 
 
 def env_ids(benchmark_only: bool = False) -> list[str]:
@@ -116,10 +620,7 @@ def get_spec(spec_id: str) -> EnvSpecFile:
     """The parsed spec of a registered id (with near-match suggestions when unknown)."""
     register_envs()
     if spec_id not in _SPECS:
-        import difflib
-
-        close = difflib.get_close_matches(spec_id, list(_SPECS), n=3, cutoff=0.4)
-        hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
+        hint = did_you_mean(spec_id, _SPECS, cutoff=0.4)
         raise UnknownIdError(f"unknown fricbench env id {spec_id!r}{hint}")
     return _SPECS[spec_id]
 
