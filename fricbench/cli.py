@@ -41,7 +41,16 @@ def _cmd_list(args: argparse.Namespace) -> int:
         print(f"{title}:")
         for i in ids:
             print(f"  {i}")
-    return 0
+    if not args.check:
+        return 0
+    from fricbench.gym import check_specs, spec_files
+
+    problems = [(exc.path, p) for exc in check_specs() for p in exc.problems]
+    print(f"env specs: {len(spec_files())} files checked, {len(problems)} problem"
+          f"{'' if len(problems) == 1 else 's'}")
+    for path, problem in problems:
+        print(f"  {path}: {problem}")
+    return 1 if problems else 0
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -166,6 +175,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("list", help="everything registered")
+    p.add_argument("--check", action="store_true",
+                   help="also validate every env spec file (shipped and FRICBENCH_ENV_PATH); "
+                        "report each problem and exit 1 if there is one")
     p.set_defaults(func=_cmd_list)
 
     p = sub.add_parser("simulate", help="simulate an env's axis on a trajectory")
