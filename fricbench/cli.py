@@ -1,4 +1,4 @@
-"""``fricbench`` command line: thin glue that parses arguments and calls library functions.
+"""The ``fricbench`` command line: parses arguments, calls library functions, prints.
 
 Subcommands: ``list``, ``simulate``, ``perf``, ``bench``, and those contributed by the
 predictor (``reproduce``), compensator (``train``) and diagnosis (``diagnose``) packages.

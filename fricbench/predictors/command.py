@@ -32,7 +32,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT.json", default=None,
-                   help="write the summary (issue-3 keys) to this file (atomically)")
+                   help="write the JSON summary to this file (written atomically)")
     p.add_argument("--plots", metavar="DIR", default=None,
                    help="draw the counterparts of the paper's Figures 11-18 into DIR")
     p.add_argument("--max-epochs", type=int, default=None,

@@ -44,14 +44,14 @@ from fricbench.trajectories.base import Reference
 __all__ = ["ReproduceConfig", "TrajectoryReport", "ReproduceResult", "reproduce", "write_json",
            "plot_figures", "format_report", "PAPER"]
 
-#: The paper's numbers (Sec. 4; METHOD.md Sec. 6), um.
+#: The paper's numbers (Wang & Zhang 2023, Sec. 4), um.
 PAPER: dict[str, Any] = {
     "v_break_mm_s": 1.98,
     "m_serial": {"tracking_max_um": 40.0, "tf_max_um": 20.0, "tf_lstm_max_um": 3.5},
     "curve": {"tracking_max_um": 44.0, "tf_max_um": 27.0, "tf_lstm_max_um": 8.0},
 }
 
-#: Targets of issue 3 (held-out runs): TF / TF+LSTM ratios and the pre-compensation cut.
+#: Reproduction targets (held-out runs): TF / TF+LSTM ratios and the pre-compensation cut.
 TARGETS = {"m_serial_ratio": 5.0, "curve_ratio": 3.0, "m_serial_precomp_cut": 0.70,
            "beat_paper_ratio": 10.0}
 
@@ -213,7 +213,7 @@ class ReproduceResult:
     n_train_samples: int
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON summary (keys as in issue 3, plus context under extra keys)."""
+        """The JSON summary (ratios, pre-compensation cuts, targets; context under extra keys)."""
         out: dict[str, Any] = {
             "tf": {"num": self.tf_num, "den": self.tf_den},
             "v_break_mm_s": self.v_break_mm_s,

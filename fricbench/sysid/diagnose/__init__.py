@@ -12,7 +12,9 @@ Modules, in the order of the workflow:
 * :mod:`~fricbench.sysid.diagnose.prepared` - everything derived once from a run;
 * :mod:`~fricbench.sysid.diagnose.leastsq` - small least-squares solvers;
 * :mod:`~fricbench.sysid.diagnose.controllers` - cascade and identified (ARX) control laws;
-* :mod:`~fricbench.sysid.diagnose.closed_loop` - the free-run simulator of the grey box;
+* :mod:`~fricbench.sysid.diagnose.closed_loop` - the plant entries the effects fit; the grey box
+  runs on the axis's own plant (:mod:`fricbench.axis.plant`) under a linear law
+  (:mod:`fricbench.axis.linear_law`), the same code as the environments;
 * :mod:`~fricbench.sysid.diagnose.effects` - the candidate effects;
 * :mod:`~fricbench.sysid.diagnose.models` - the grey-box model and its two fits;
 * :mod:`~fricbench.sysid.diagnose.baselines` - the linear starting models;

@@ -1,4 +1,4 @@
-"""Wall-clock time of the diagnosis on a long run (issue 5: 40,000 samples in under 30 s).
+"""Wall-clock time of the diagnosis on a long run (target: 40,000 samples in under 30 s).
 
 ``python -m fricbench.sysid.diagnose.benchmark [--samples 40000] [--effort] [--seed 0]``
 simulates a run of the default axis (Stribeck friction, 0.1 um noise, 20 nm encoder) with a

@@ -118,7 +118,7 @@ class DiagnosisResult:
         return self.search.final.model
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-ready report with the keys of issue 5 (and details beside them)."""
+        """JSON-ready report: effects, position, effort, validation (details beside them)."""
         fu = self.force_unit
         steps = []
         for i, st in enumerate(self.search.steps[1:], start=1):
