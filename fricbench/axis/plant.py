@@ -148,20 +148,26 @@ class Plant(NamedTuple):
 
 def constants(p: np.ndarray) -> Plant:
     """Unpack plant row ``p`` into the constants the substep uses."""
-    n_sub = int(p[NSUB])
+    # rows are validated where they are built (Axis, the diagnosis's bounds); the guards below
+    # only keep a degenerate row (a zero mass in an inverse-dynamics fit, a zero period) from
+    # raising inside compiled code: it gives inf/NaN, which every driver checks for
+    n_sub = max(int(p[NSUB]), 1)
     h = p[TS] / n_sub
     m = p[M]
     visc = p[B] + p[FV]
     # M_eff = M + h (B + fv_dir): the implicit update's effective mass in each direction
-    inv_pos = 1.0 / (m + h * max(visc + 0.5 * p[DB], 0.0))
-    inv_neg = 1.0 / (m + h * max(visc - 0.5 * p[DB], 0.0))
+    meff_pos = m + h * max(visc + 0.5 * p[DB], 0.0)
+    meff_neg = m + h * max(visc - 0.5 * p[DB], 0.0)
+    inv_pos = 1.0 / meff_pos if meff_pos != 0.0 else math.inf
+    inv_neg = 1.0 / meff_neg if meff_neg != 0.0 else math.inf
     # no Stribeck hump (or vs <= 0): plain Coulomb, and the substep skips the exponential
     inv_vs = 1.0 / p[VS] if (p[VS] > 0.0 and p[FS_EXCESS] != 0.0) else 0.0
+    cog_k = 2.0 * math.pi / p[COG_PERIOD] if p[COG_PERIOD] != 0.0 else 0.0
+    pd_k = 2.0 * math.pi / p[PD_PERIOD] if p[PD_PERIOD] != 0.0 else 0.0
     return Plant(h, n_sub, m, p[B], p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
                  p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
-                 p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS],
-                 2.0 * math.pi / p[COG_PERIOD], p[PD_GRAD], p[PD_SIN], p[PD_COS],
-                 2.0 * math.pi / p[PD_PERIOD], p[PD_CENTER], p[BACKLASH], p[TH_AMP], p[TH_TAU],
+                 p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS], cog_k, p[PD_GRAD],
+                 p[PD_SIN], p[PD_COS], pd_k, p[PD_CENTER], p[BACKLASH], p[TH_AMP], p[TH_TAU],
                  p[QUANT], p[NOISE], p[MEAS_TABLE] > 0.5)
 
 
