@@ -150,10 +150,10 @@ class Registry(Generic[T]):
         factory = entry.load()
         return factory(**{**entry.kwargs, **kwargs})  # type: ignore[no-any-return]
 
-    def ids(self) -> list[str]:
-        """All registered ids, sorted."""
+    def ids(self, sort: bool = True) -> list[str]:
+        """All registered ids, sorted (or in registration order with ``sort=False``)."""
         self._ensure_plugins()
-        return sorted(self._entries)
+        return sorted(self._entries) if sort else list(self._entries)
 
     def __contains__(self, id: object) -> bool:
         self._ensure_plugins()

@@ -24,13 +24,12 @@ from scipy import optimize, signal
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController, LoopInputs
-from fricbench.sysid.diagnose.effects import IDIM_NONLINEAR, free_indices, idim_columns
+from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, matvec, solve_ls, sumsq
+from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.diagnose.signals import (
-    MIN_PERIODS_IN_STROKE,
     decimate_columns,
-    period_candidates,
 )
 
 __all__ = ["GreyBox", "simulate_position", "simulate_models", "simulate_inputs", "Param",
@@ -68,12 +67,7 @@ class GreyBox:
 
     def without(self, effect: str) -> GreyBox:
         """A copy with ``effect`` switched off (its parameters zeroed)."""
-        p = self.plant.copy()
-        for i in free_indices(effect, self.effects):
-            if i not in (CL.I_VS, CL.I_COGP, CL.I_PDP, CL.I_THT):
-                p[i] = 0.0
-        if effect == "asymmetric_friction":
-            p[CL.I_DFC] = 0.0
+        p = get_effect(effect).zeroed(self.plant, self.effects)
         return self.copy(plant=p, effects=tuple(e for e in self.effects if e != effect))
 
 
@@ -157,116 +151,9 @@ def cascade_effort(ctrl: CascadeController | ArxController, prep: Prepared,
 
 
 # -- output-error fit ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Param:
-    """One free parameter of an output-error fit.
-
-    Attributes
-    ----------
-    target : str or int
-        Controller attribute (``"wv"``, ``"kp"``, ...) or plant index (``closed_loop.I_*``).
-    log : bool
-        Optimised as a logarithm (positive parameters spanning decades).
-    lo, hi : float
-        Physical bounds.
-    scale : float
-        Typical magnitude (optimiser scaling and finite-difference step).
-    """
-
-    target: str | int
-    log: bool
-    lo: float
-    hi: float
-    scale: float
-
-    def get(self, model: GreyBox) -> float:
-        """Physical value in ``model``."""
-        if isinstance(self.target, str):
-            ctrl = model.controller
-            if self.target.endswith("_per_wv"):
-                return float(getattr(ctrl, self.target[:-7])) / float(ctrl.wv)  # type: ignore
-            return float(getattr(ctrl, self.target))
-        return float(model.plant[self.target])
-
-    def to_theta(self, value: float) -> float:
-        """Optimiser coordinate of a physical value."""
-        v = min(max(value, self.lo), self.hi)
-        return math.log(v) if self.log else v / self.scale
-
-    def from_theta(self, theta: float) -> float:
-        """Physical value of an optimiser coordinate."""
-        return math.exp(theta) if self.log else theta * self.scale
-
-    def bounds(self) -> tuple[float, float]:
-        """Optimiser bounds."""
-        if self.log:
-            return math.log(self.lo), math.log(self.hi)
-        return self.lo / self.scale, self.hi / self.scale
-
-
-@dataclass(frozen=True)
-class Bounds:
-    """Physical ranges of the parameters of one run.
-
-    Attributes
-    ----------
-    force : float
-        Force scale: largest effort magnitude (effort unit, or m/s^2 without effort).
-    stroke : float
-        Range of motion, m.
-    v_max : float
-        Largest reference speed, m/s.
-    duration : float
-        Length of the run, s.
-    ts : float
-        Sample time, s.
-    noise : float
-        Noise floor of the position, m.
-    """
-
-    force: float
-    stroke: float
-    v_max: float
-    duration: float
-    ts: float
-    noise: float
-
-    @property
-    def damping_max(self) -> float:
-        """Largest viscous coefficient: the whole force at a tenth of the top speed."""
-        return 10.0 * self.force / max(self.v_max, 1e-9)
-
-
-def _plant_param(i: int, value: float, b: Bounds) -> Param:
-    f, fmax = b.force, 2.0 * b.force
-    if i == CL.I_B:
-        return Param(i, False, 0.0, b.damping_max, max(b.force / max(b.v_max, 1e-9), 1e-12))
-    if i in (CL.I_FC, CL.I_FS):
-        return Param(i, False, 0.0, fmax, f)
-    if i == CL.I_VS:
-        return Param(i, True, max(1e-3 * b.v_max, 1e-7), max(0.5 * b.v_max, 2e-7), 1.0)
-    if i in (CL.I_DFC, CL.I_OFF, CL.I_COGA, CL.I_COGB):
-        return Param(i, False, -fmax, fmax, f)
-    if i == CL.I_DB:
-        return Param(i, False, -b.damping_max, b.damping_max,
-                     max(b.force / max(b.v_max, 1e-9), 1e-12))
-    if i in (CL.I_COGP,):
-        return Param(i, True, value * 0.98, value * 1.02, 1.0)
-    if i == CL.I_PDP:
-        return Param(i, True, value * 0.8, value * 1.25, 1.0)
-    if i == CL.I_PDG:
-        g = 1.8 / max(b.stroke, 1e-9)
-        return Param(i, False, -g, g, 1.0 / max(b.stroke, 1e-9))
-    if i in (CL.I_PDA, CL.I_PDB):
-        return Param(i, False, -0.9, 0.9, 0.3)
-    if i == CL.I_BL:
-        return Param(i, False, 0.0, min(1e-3, 0.2 * b.stroke), max(b.noise, 1e-7))
-    if i == CL.I_THA:
-        d = max(1e-3, 0.1 * b.stroke)
-        return Param(i, False, -d, d, max(b.noise, 1e-7))
-    if i == CL.I_THT:
-        return Param(i, True, b.duration / 100.0, 20.0 * b.duration, 1.0)
-    raise ValueError(f"plant index {i}: no bounds defined")
+def _damping_param(b: Bounds) -> Param:
+    """The viscous damping ``B`` of every model (not an effect): 0 .. ``b.damping_max``."""
+    return Param(CL.I_B, False, 0.0, b.damping_max, b.damping_scale)
 
 
 def position_params(model: GreyBox, b: Bounds, *, controller: bool,
@@ -326,10 +213,11 @@ def position_params(model: GreyBox, b: Bounds, *, controller: bool,
             Param("kaff", False, *lim["kaff"], 0.5),
         ]
     if damping:
-        out.append(_plant_param(CL.I_B, model.plant[CL.I_B], b))
+        out.append(_damping_param(b))
     for e in (model.effects if effects is None else effects):
-        for i in free_indices(e, model.effects):
-            out.append(_plant_param(i, model.plant[i], b))
+        effect = get_effect(e)
+        for i in effect.free(model.effects):
+            out.append(effect.bounds(i, float(model.plant[i]), b))
     return out
 
 
@@ -524,12 +412,10 @@ class InverseDynamics:
     # ---- regression
     def _columns(self, name: str, p: np.ndarray, effects: tuple[str, ...]
                  ) -> tuple[np.ndarray, tuple[int, ...], np.ndarray]:
-        nl = IDIM_NONLINEAR.get(name)
-        key_nl = float(p[nl]) if nl is not None else None
-        key = ("col", name, key_nl, "force_offset" in effects,
-               float(p[CL.I_XC]) if name == "position_dependent_friction" else None)
+        effect = get_effect(name)
+        key = ("col", name, *effect.idim_key(p, effects))
         if key not in self._layouts:
-            cols, targets, scale = idim_columns(name, p, effects, self.prep.xf, self.prep.vf)
+            cols, targets, scale = effect.idim_columns(p, effects, self.prep.xf, self.prep.vf)
             self.prep.dec(key, cols)
             self._layouts[key] = (targets, scale)
         targets, scale = self._layouts[key]
@@ -541,7 +427,7 @@ class InverseDynamics:
         cols = [self.a_dec[:, None], self.v_dec[:, None]]
         layout: list[tuple[int, float]] = [(CL.I_M, 1.0), (CL.I_B, 1.0)]
         for e in effects:
-            if e in ("backlash", "thermal_drift"):
+            if get_effect(e).kind != "force":
                 continue
             c, targets, scale = self._columns(e, p, effects)
             cols.append(c)
@@ -551,14 +437,16 @@ class InverseDynamics:
     def _solve(self, effects: tuple[str, ...], p: np.ndarray, rows: np.ndarray
                ) -> tuple[np.ndarray, float]:
         X, layout = self.design(effects, p)
-        # physical signs: mass, damping, Coulomb and Stribeck levels are not negative
-        nonneg = np.array([t in (CL.I_M, CL.I_B, CL.I_FC, CL.I_FS) for t, _ in layout])
+        # physical signs: mass, damping and friction levels are not negative
+        keep = {CL.I_M, CL.I_B}.union(*(get_effect(e).nonnegative for e in effects))
+        nonneg = np.array([t in keep for t, _ in layout])
         Xr, ur = X[rows], self.u_dec[rows]
         coef = solve_ls(Xr, ur, nonneg)
         out = p.copy()
         for (target, s), cf in zip(layout, coef, strict=True):
             out[target] = cf * s if s != 0.0 else 0.0
-        if "position_dependent_friction" in effects:
+        if any(s == 0.0 for _, s in layout):
+            # coefficients of a relative change of the friction level: divide by the level
             fc = out[CL.I_FC]
             for (target, s), cf in zip(layout, coef, strict=True):
                 if s == 0.0:
@@ -569,53 +457,26 @@ class InverseDynamics:
                           rows: np.ndarray, start: bool) -> np.ndarray:
         """Refine (``start=False``) or find (``start=True``) the nonlinear parameter of an
         effect by variable projection on ``rows``."""
-        idx = IDIM_NONLINEAR[name]
-        pr = self.prep
+        effect = get_effect(name)
+        idx = effect.idim_nonlinear
+        if idx is None:
+            raise ValueError(f"effect={name!r} has no nonlinear parameter")
 
         def sse_at(val: float) -> float:
             q = p.copy()
             q[idx] = val
             return self._solve(effects, q, rows)[1]
 
-        if name == "stribeck_friction":
-            lo, hi = max(1e-3 * pr.v_max, 1e-7), max(0.5 * pr.v_max, 2e-7)
-            grid = np.geomspace(lo, hi, 14) if start else np.array([p[idx]])
-        elif name == "cogging":
-            moving = np.abs(self.v_dec) > 0.05 * pr.v_max
-            lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
-                np.abs(pr.vf[np.abs(pr.vf) > 0.05 * pr.v_max])) if np.any(
-                np.abs(pr.vf) > 0.05 * pr.v_max) else 1e-4))
-            hi = pr.stroke / MIN_PERIODS_IN_STROKE
-            if start:
-                base = tuple(e for e in effects if e != "cogging")
-                pb, _ = self._solve(base, p, rows)
-                resid = self.u_dec - self.predict(pb)
-                sel = moving & rows
-                grid = np.array(period_candidates(self.x_dec, resid, sel, lo, hi, n_best=4))
-                if grid.size == 0:
-                    return p
-            else:
-                grid = np.array([p[idx]])
-        elif name == "position_dependent_friction":
-            lo, hi = pr.stroke / 8.0, 2.0 * pr.stroke
-            grid = np.geomspace(lo, hi, 10) if start else np.array([p[idx]])
-        else:
-            raise ValueError(f"effect={name!r} has no nonlinear parameter")
+        grid = effect.idim_grid(self, effects, p, rows, start)
+        if grid.size == 0:
+            return p
         best_val, best_sse = float(grid[0]), math.inf
         for g in grid:
             s = sse_at(float(g))
             if s < best_sse:
                 best_val, best_sse = float(g), s
         # continuous refinement (log coordinate) around the best grid point
-        if name == "cogging":
-            df = 1.0 / best_val * (0.01 if not start else 0.02)
-            bracket = (math.log(1.0 / (1.0 / best_val + df)), math.log(1.0 / max(
-                1.0 / best_val - df, 1e-12)))
-        elif start and grid.size > 1:
-            ratio = (grid[1] / grid[0]) ** 1.0
-            bracket = (math.log(best_val / ratio), math.log(best_val * ratio))
-        else:
-            bracket = (math.log(best_val) - 0.2, math.log(best_val) + 0.2)
+        bracket = effect.idim_bracket(best_val, grid, start)
         res = optimize.minimize_scalar(lambda lv: sse_at(math.exp(lv)), bounds=bracket,
                                        method="bounded", options={"xatol": 1e-4})
         out = p.copy()
@@ -631,10 +492,10 @@ class InverseDynamics:
         rows = np.ones(self.n_dec, dtype=bool) if rows is None else rows
         rows = rows & self.prep.sliding_dec
         q = p.copy()
-        if "position_dependent_friction" in effects:
-            q[CL.I_XC] = self.prep.center
         for e in effects:
-            if e in IDIM_NONLINEAR:
+            q = get_effect(e).switched_on(q, self.prep)
+        for e in effects:
+            if get_effect(e).idim_nonlinear is not None:
                 q = self._search_nonlinear(e, effects, q, rows, start=(e == new))
         out, _ = self._solve(effects, q, rows)
         return out

@@ -33,14 +33,14 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController
-from fricbench.sysid.diagnose.effects import EFFECTS, describe_parameters, free_indices
+from fricbench.sysid.diagnose.effects import describe_parameters, effect_names, get_effect
 from fricbench.sysid.diagnose.leastsq import matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.models import (
     Bounds,
@@ -55,7 +55,6 @@ from fricbench.sysid.diagnose.models import (
     simulate_position,
 )
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.diagnose.signals import MIN_PERIODS_IN_STROKE, period_candidates
 
 __all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
 
@@ -91,7 +90,7 @@ class SearchSettings:
     floor_factor: float = 1.25
     max_steps: int = 8
     n_confirm: int = 2
-    candidates: tuple[str, ...] = tuple(EFFECTS)
+    candidates: tuple[str, ...] = field(default_factory=effect_names)
 
     def required(self, n_params: int) -> float:
         """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters."""
@@ -159,20 +158,20 @@ def _rms(r: np.ndarray) -> float:
 
 
 def _n_params(effect: str, effects: tuple[str, ...]) -> int:
-    return len(free_indices(effect, effects))
+    return len(get_effect(effect).free(effects))
 
 
 def _available(model: GreyBox, prep: Prepared, settings: SearchSettings) -> list[str]:
     out = []
     for name in settings.candidates:
-        spec = EFFECTS[name]
+        effect = get_effect(name)
         if name in model.effects:
             continue
-        if any(r not in model.effects for r in spec.requires):
+        if any(r not in model.effects for r in effect.requires):
             continue
-        if spec.needs_reversals and prep.run.n_reversals == 0:
+        if effect.needs_reversals and prep.run.n_reversals == 0:
             continue
-        if name == "thermal_drift" and prep.duration < 2.0:
+        if not effect.available(prep):
             continue
         out.append(name)
     return out
@@ -180,9 +179,7 @@ def _available(model: GreyBox, prep: Prepared, settings: SearchSettings) -> list
 
 def _init_effect(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> GreyBox:
     """Model with effect ``name`` switched on at neutral values (fit starts)."""
-    p = model.plant.copy()
-    if name == "position_dependent_friction":
-        p[CL.I_XC] = prep.center
+    p = get_effect(name).switched_on(model.plant, prep)
     return model.copy(plant=p, effects=model.effects + (name,))
 
 
@@ -194,45 +191,10 @@ def _position_sse(y: np.ndarray, prep: Prepared, mask: np.ndarray) -> float:
 # -- with an effort -------------------------------------------------------------------------------
 def _output_fit(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
                 mask: np.ndarray | None, max_iter: int = 12) -> PositionFitResult:
-    outputs = [e for e in model.effects if EFFECTS[e].kind == "output"]
+    outputs = [e for e in model.effects if get_effect(e).kind == "output"]
     fit = PositionFit(prep, position_params(model, b, controller=False, effects=outputs,
                                             damping=False), mask, w)
     return fit.run(model, max_iter=max_iter)
-
-
-def _thermal_start(model: GreyBox, prep: Prepared, y: np.ndarray, mask: np.ndarray) -> GreyBox:
-    """Thermal drift start: best time constant on a grid, amplitude by least squares."""
-    r = (prep.x - y)
-    t = prep.inputs.t
-    best = (math.inf, 0.0, prep.duration)
-    for tau in prep.duration * np.array([0.03, 0.1, 0.3, 1.0, 3.0]):
-        col = 1.0 - np.exp(-t / tau)
-        den = sumsq(col[mask])
-        if den <= 0:
-            continue
-        amp = float(np.einsum("i,i->", col[mask], r[mask])) / den
-        sse = float(np.sum((r[mask] - amp * col[mask]) ** 2))
-        if sse < best[0]:
-            best = (sse, amp, tau)
-    p = model.plant.copy()
-    p[CL.I_THA] = best[1]
-    p[CL.I_THT] = best[2]
-    return model.copy(plant=p)
-
-
-def _backlash_start(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
-                    mask: np.ndarray) -> GreyBox:
-    """Backlash start: the best of a few sizes (the play is not smooth at zero)."""
-    hi = min(1e-3, 0.2 * b.stroke)
-    sizes = [s for s in np.geomspace(max(b.noise, 1e-8), hi, 8)]
-    models = []
-    for s in sizes:
-        p = model.plant.copy()
-        p[CL.I_BL] = s
-        models.append(model.copy(plant=p))
-    ys, _, _ = simulate_models(models, prep, w)
-    sse = [_position_sse(y, prep, mask) for y in ys]
-    return models[int(np.argmin(sse))]
 
 
 def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
@@ -244,10 +206,7 @@ def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
     for k in (0, 1):
         train = prep.folds != k
         m = _init_effect(model, name, prep, b)
-        if name == "thermal_drift":
-            m = _thermal_start(m, prep, y, train)
-        else:
-            m = _backlash_start(m, prep, b, w, train)
+        m = get_effect(name).output_start(m, prep, b, w, y, train, simulate_models)
         res = _output_fit(m, prep, b, w, train)
         fits.append(res.model)
         base_sse += _position_sse(y, prep, ~train)
@@ -279,7 +238,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
         for name in _available(m, prep, settings):
             effects = m.effects + (name,)
             n_par = _n_params(name, effects)
-            if EFFECTS[name].kind == "force":
+            if get_effect(name).kind == "force":
                 p0 = _init_effect(m, name, prep, b).plant
                 cv, _ = idim.cv_sse(effects, p0, new=name)
                 ratio = cv / max(base_cv, 1e-300)
@@ -311,8 +270,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
             cur.candidates = scores
             break
         new = proposals[winner.effect]
-        if EFFECTS[winner.effect].kind == "force" and any(
-                EFFECTS[e].kind == "output" for e in new.effects):
+        if get_effect(winner.effect).kind == "force" and any(
+                get_effect(e).kind == "output" for e in new.effects):
             new = _output_fit(new, prep, b, w, None).model
         y_new, _ = simulate_position(new, prep, w)
         step = Step(winner.effect, new, y_new, _rms(prep.x - y_new),
@@ -325,22 +284,14 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
 
 
 def _zero_effect(p: np.ndarray, name: str, effects: tuple[str, ...]) -> np.ndarray:
-    q = p.copy()
-    for i in free_indices(name, effects):
-        if i not in (CL.I_VS, CL.I_COGP, CL.I_PDP, CL.I_THT):
-            q[i] = 0.0
-    if name == "asymmetric_friction":
-        q[CL.I_DFC] = 0.0
-    return q
+    return get_effect(name).zeroed(p, effects)
 
 
 def _start_output(model: GreyBox, name: str, prep: Prepared, b: Bounds, w: np.ndarray | None,
                   y: np.ndarray) -> GreyBox:
     m = _init_effect(model, name, prep, b)
     allm = np.ones(prep.n, dtype=bool)
-    if name == "thermal_drift":
-        return _thermal_start(m, prep, y, allm)
-    return _backlash_start(m, prep, b, w, allm)
+    return get_effect(name).output_start(m, prep, b, w, y, allm, simulate_models)
 
 
 def _pick(scores: list[CandidateScore], settings: SearchSettings) -> CandidateScore | None:
@@ -369,9 +320,6 @@ class _Probe:
     ref: GreyBox | None = None
 
 
-_FORCE_LIKE = (CL.I_FC, CL.I_FS, CL.I_DFC, CL.I_OFF, CL.I_COGA, CL.I_COGB, CL.I_DB)
-
-
 def _idim_probe(model: GreyBox, name: str, prep: Prepared, b: Bounds,
                 idim: InverseDynamics) -> _Probe | None:
     """A start for force effect ``name`` from the inverse dynamics of the virtual effort.
@@ -388,26 +336,19 @@ def _idim_probe(model: GreyBox, name: str, prep: Prepared, b: Bounds,
         return None
     if not np.all(np.isfinite(q)) or q[CL.I_M] <= 0.0:
         return None
+    effect = get_effect(name)
     p = m0.plant.copy()
-    idx = free_indices(name, m0.effects)
+    idx = effect.free(m0.effects)
     for i in idx:
         # the virtual effort's mass is not exactly the model's unit mass: rescale forces
-        p[i] = q[i] / q[CL.I_M] if i in _FORCE_LIKE else q[i]
-    if name == "position_dependent_friction":
-        p[CL.I_XC] = q[CL.I_XC]
-    dummy = _Probe(name, [], [], list(idx), m0)
-    p = _physical(p, name, b, dummy)
+        p[i] = q[i] / q[CL.I_M] if i in effect.force_parameters else q[i]
+    p = _physical(p, name, b, idx)
     ref = m0.copy(plant=p)
     mods, sizes, inds = [], [], []
     for i in idx:
-        if i in (CL.I_VS, CL.I_COGP, CL.I_PDP, CL.I_THT):
+        if i in effect.shape_parameters:
             continue
-        if i in _FORCE_LIKE:
-            h = 0.2 * abs(p[i]) + 0.02 * b.force
-        elif i == CL.I_PDG:
-            h = 0.2 * abs(p[i]) + 0.05 / b.stroke
-        else:
-            h = 0.2 * abs(p[i]) + 0.05
+        h = effect.probe_step(i, float(p[i]), b)
         qq = p.copy()
         qq[i] += h
         mods.append(m0.copy(plant=qq))
@@ -419,13 +360,10 @@ def _idim_probe(model: GreyBox, name: str, prep: Prepared, b: Bounds,
 def _probes(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray
             ) -> list[_Probe]:
     """Variants of a candidate with the parameters to probe (column per parameter)."""
-    F = b.force
     m0 = _init_effect(model, name, prep, b)
-    effects = m0.effects
     p = m0.plant
     out: list[_Probe] = []
-
-    def probe(changes: dict[int, float], fixed: dict[int, float]) -> _Probe:
+    for changes, fixed in get_effect(name).probes(p, m0.effects, prep, b, y):
         base = p.copy()
         for i, v in fixed.items():
             base[i] = v
@@ -436,47 +374,7 @@ def _probes(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray
             mods.append(m0.copy(plant=q))
             sizes.append(v)
             idx.append(i)
-        return _Probe(name, mods, sizes, idx, m0.copy(plant=base))
-
-    fc = max(p[CL.I_FC], 0.1 * F)
-    if name == "coulomb_friction":
-        out.append(probe({CL.I_FC: 0.3 * F}, {}))
-    elif name == "stribeck_friction":
-        for frac in (0.01, 0.05, 0.25):
-            out.append(probe({CL.I_FS: 0.3 * fc}, {CL.I_VS: max(frac * b.v_max, 1e-6)}))
-    elif name == "asymmetric_friction":
-        ch = {CL.I_DB: 0.3 * (p[CL.I_B] + F / b.v_max)}
-        if CL.I_DFC in free_indices(name, effects):
-            ch[CL.I_DFC] = 0.2 * fc
-        out.append(probe(ch, {}))
-    elif name == "force_offset":
-        out.append(probe({CL.I_OFF: 0.1 * F}, {}))
-    elif name == "cogging":
-        r = prep.x - y
-        v = prep.vf
-        moving = np.abs(v) > 0.05 * b.v_max
-        lo = max(1e-4, 20.0 * prep.noise.rms)
-        periods = []
-        for sgn in (1.0, -1.0):
-            sel = moving & (np.sign(v) == sgn)
-            periods += period_candidates(prep.xf, r, sel, lo, b.stroke / MIN_PERIODS_IN_STROKE,
-                                          n_best=2)
-        uniq: list[float] = []
-        for per in periods:
-            if all(abs(per / q - 1.0) > 0.02 for q in uniq):
-                uniq.append(per)
-        for per in uniq[:3]:
-            out.append(probe({CL.I_COGA: 0.2 * F, CL.I_COGB: 0.2 * F}, {CL.I_COGP: per}))
-    elif name == "position_dependent_friction":
-        for per in (b.stroke / 3.0, b.stroke / 1.5, 1.5 * b.stroke):
-            out.append(probe({CL.I_PDG: 0.3 / b.stroke, CL.I_PDA: 0.3, CL.I_PDB: 0.3},
-                             {CL.I_PDP: per, CL.I_XC: prep.center}))
-    elif name == "backlash":
-        for s in (3.0 * b.noise, 30.0 * b.noise):
-            out.append(probe({CL.I_BL: min(max(s, 1e-8), 0.2 * b.stroke)}, {}))
-    elif name == "thermal_drift":
-        for tau in prep.duration * np.array([0.05, 0.2, 1.0, 5.0]):
-            out.append(probe({CL.I_THA: max(b.noise, 1e-7)}, {CL.I_THT: tau}))
+        out.append(_Probe(name, mods, sizes, idx, m0.copy(plant=base)))
     return out
 
 
@@ -518,22 +416,17 @@ def _eval_params(model: GreyBox, b: Bounds) -> list:
 def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray,
                   mask: np.ndarray) -> GreyBox:
     m = _init_effect(model, name, prep, b)
-    if name == "thermal_drift":
-        return _thermal_start(m, prep, y, mask)
-    return _backlash_start(m, prep, b, None, mask)
+    return get_effect(name).output_start(m, prep, b, None, y, mask, simulate_models)
 
 
 _Variant = tuple[float, _Probe, np.ndarray]
 
-# starts tried per candidate in the real fits: the Stribeck velocity and a spatial period make
-# the error surface multimodal. The periods of the screened variants (peaks of the residual's
-# spectrum against position, the inverse dynamics of the virtual effort) are distinct starts:
-# the linearised screen ranks them poorly (a ripple's response through a loop with stiction
-# is far from linear), and the fit only refines a period within a few per cent
-_N_STARTS = {"stribeck_friction": 2, "cogging": 3}
-
-# candidates fitted for real at every step, whatever their linearised screen (see above)
-_ALWAYS_FITTED = ("cogging",)
+# Starts tried per candidate in the real fits (Effect.n_starts): a Stribeck velocity and a
+# spatial period make the error surface multimodal. The periods of the screened variants (peaks
+# of the residual's spectrum against position, the inverse dynamics of the virtual effort) are
+# distinct starts: the linearised screen ranks them poorly (a ripple's response through a loop
+# with stiction is far from linear), and the fit only refines a period within a few per cent.
+# Effects with Effect.always_fitted are fitted for real at every step, whatever their screen.
 
 
 def _fit_starts(variants: list[_Variant], name: str, b: Bounds) -> list[GreyBox]:
@@ -546,13 +439,14 @@ def _fit_starts(variants: list[_Variant], name: str, b: Bounds) -> list[GreyBox]
     periods: list[float] = []
     for v in variants:
         st = _variant_start(v, name, b)
-        if name == "cogging":
-            per = float(st.plant[CL.I_COGP])
+        effect = get_effect(name)
+        if effect.period_parameter is not None:
+            per = float(st.plant[effect.period_parameter])
             if any(abs(per / q - 1.0) <= 0.02 for q in periods):
                 continue
             periods.append(per)
         out.append(st)
-        if len(out) >= _N_STARTS.get(name, 1):
+        if len(out) >= effect.n_starts:
             break
     return out
 
@@ -565,7 +459,7 @@ def _variant_start(variant: _Variant, name: str, b: Bounds) -> GreyBox:
     q = pr.start.plant.copy()
     for i, s_, a in zip(pr.indices, pr.sizes, amp, strict=True):
         q[i] = a if np.isfinite(a) else s_
-    return pr.start.copy(plant=_physical(q, name, b, pr))
+    return pr.start.copy(plant=_physical(q, name, b, pr.indices))
 
 
 def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: SearchSettings,
@@ -585,7 +479,7 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
     key = hash(m.controller) if isinstance(m.controller, CascadeController) else 0
     idim_v = InverseDynamics(prep, cascade_effort(m.controller, prep), f"virtual-{tag}-{key}")
     for name in _available(m, prep, settings):
-        if EFFECTS[name].kind == "force":
+        if get_effect(name).kind == "force":
             pr_idim = _idim_probe(m, name, prep, b, idim_v)
             if pr_idim is not None:
                 probes.append(pr_idim)
@@ -687,16 +581,17 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # and a periodic force, whose screen is no better (its linearised response to a
         # ripple misses how the ripple moves the stops of a stick-slip motion)
         chosen += [kv for kv in ranked[n_confirm:]
-                   if kv[0] in ("coulomb_friction", *_ALWAYS_FITTED) or kv[0] in runners_up]
+                   if kv[0] == "coulomb_friction" or get_effect(kv[0]).always_fitted
+                   or kv[0] in runners_up]
         for name, (ratio, _, _) in chosen:
             if (ratio >= 1.0 and len(steps) > 1 and name != "coulomb_friction"
-                    and name not in runners_up and name not in _ALWAYS_FITTED):
+                    and name not in runners_up and not get_effect(name).always_fitted):
                 continue
             heldout = 0.0
             fits: dict[int, PositionFitResult] = {}
             for k in (0, 1):
                 train = prep.folds != k
-                if EFFECTS[name].kind == "output":
+                if get_effect(name).kind == "output":
                     starts = [_output_start(m, name, prep, b, cur.y, train)]
                 else:
                     starts = _fit_starts(variants[name], name, b)
@@ -786,26 +681,12 @@ def _half_sse(y: np.ndarray, prep: Prepared) -> float:
     return 0.5 * sumsq((prep.x - y) / scale)
 
 
-def _physical(q: np.ndarray, name: str, b: Bounds, pr: _Probe) -> np.ndarray:
-    """Clip a linearised start into the physical ranges."""
-    F = b.force
+def _physical(q: np.ndarray, name: str, b: Bounds, indices: Sequence[int]) -> np.ndarray:
+    """Clip a linearised start of effect ``name`` (entries ``indices``) into physical ranges."""
+    effect = get_effect(name)
     out = q.copy()
-    for i in pr.indices:
-        if i in (CL.I_FC, CL.I_FS):
-            out[i] = min(max(out[i], 0.02 * F), 1.5 * F)
-        elif i in (CL.I_DFC, CL.I_OFF, CL.I_COGA, CL.I_COGB):
-            out[i] = float(np.clip(out[i], -1.5 * F, 1.5 * F))
-        elif i == CL.I_BL:
-            out[i] = min(max(out[i], b.noise), 0.15 * b.stroke)
-        elif i in (CL.I_PDA, CL.I_PDB):
-            out[i] = float(np.clip(out[i], -0.6, 0.6))
-        elif i == CL.I_PDG:
-            out[i] = float(np.clip(out[i], -1.2 / b.stroke, 1.2 / b.stroke))
-        elif i == CL.I_THA:
-            d = max(1e-3, 0.1 * b.stroke)
-            out[i] = float(np.clip(out[i], -0.9 * d, 0.9 * d))
-        elif i == CL.I_DB:
-            out[i] = float(np.clip(out[i], -0.9 * b.damping_max, 0.9 * b.damping_max))
+    for i in indices:
+        out[i] = effect.clip(i, float(out[i]), b)
     return out
 
 

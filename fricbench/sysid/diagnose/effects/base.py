@@ -1,0 +1,182 @@
+"""What a candidate effect of the diagnosis is: its plant entries and how to fit them.
+
+An :class:`Effect` is a physically parameterised term of the grey-box plant
+(:mod:`fricbench.axis.plant`). *Force* effects act on the mass, inside the loop
+(``M dv/dt = u - B v - F_eff``); *output* effects act between the motor and the logged
+position, outside the loop. Each effect says, in one place:
+
+* which plant entries are its free parameters (:attr:`Effect.parameters`), which of them only
+  shape it (a period, a time constant, a Stribeck velocity: kept when the effect is switched
+  off, never probed) and which are forces (rescaled when a start comes from an effort of
+  another mass);
+* their bounds in the units of a run (:meth:`Effect.bounds`) and the narrower range a
+  linearised start is clipped to (:meth:`Effect.clip`);
+* how to switch it on and off (:meth:`Effect.switched_on`, :meth:`Effect.zeroed`);
+* the probes of the position screen (:meth:`Effect.probes`);
+* force effects: the inverse-dynamics regressors (:meth:`Effect.idim_columns`) and, for a
+  nonlinear entry, its search grid (:meth:`Effect.idim_grid`);
+* output effects: a start for their fit (:meth:`Effect.output_start`);
+* how to report it (:meth:`Effect.describe`).
+
+The search (:mod:`fricbench.sysid.diagnose.search`) and the fits
+(:mod:`fricbench.sysid.diagnose.models`) only call these methods.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from fricbench.sysid.diagnose.parameters import Bounds, Param
+
+if TYPE_CHECKING:
+    from fricbench.sysid.diagnose.models import GreyBox
+    from fricbench.sysid.diagnose.prepared import Prepared
+
+__all__ = ["Effect", "Probe"]
+
+Probe = tuple[dict[int, float], dict[int, float]]
+"""One probe of the position screen: ``(changes, fixed)``. Each changed entry gives a
+finite-difference column (the entry set to the value, the rest as in the model with the fixed
+entries set)."""
+
+SimulateFn = Callable[[Sequence[Any], Any, Any], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+class Effect(ABC):
+    """Base class of the candidate effects (one small subclass per file).
+
+    Class attributes
+    ----------------
+    name : str
+        Registry id, used in reports.
+    kind : {"force", "output"}
+        Where the effect acts: on the mass inside the loop, or on the logged position.
+    requires : tuple of str
+        Effects that must already be in the model (a change of a friction level needs a
+        friction level).
+    needs_reversals : bool
+        Only identifiable when the motion reverses.
+    summary : str
+        One line for reports.
+    parameters : tuple of int
+        Plant entries that are its free parameters, in fit order.
+    shape_parameters : tuple of int
+        Entries that only shape the effect (kept when it is switched off, never probed).
+    force_parameters : tuple of int
+        Entries that are forces (divided by the mass of an inverse-dynamics start).
+    nonnegative : tuple of int
+        Entries the inverse-dynamics least squares keeps non-negative (friction levels).
+    idim_nonlinear : int or None
+        The entry its inverse-dynamics regressors are nonlinear in (searched, not solved).
+    period_parameter : int or None
+        The entry that is a spatial period, m (starts within 2 % of each other are one start).
+    n_starts : int
+        Starts of its real position fits (more where the error surface is multimodal).
+    always_fitted : bool
+        Fitted for real at every step of the position search, whatever its linearised screen.
+    """
+
+    name: ClassVar[str]
+    kind: ClassVar[str]
+    requires: ClassVar[tuple[str, ...]] = ()
+    needs_reversals: ClassVar[bool] = False
+    summary: ClassVar[str]
+    parameters: ClassVar[tuple[int, ...]]
+    shape_parameters: ClassVar[tuple[int, ...]] = ()
+    force_parameters: ClassVar[tuple[int, ...]] = ()
+    nonnegative: ClassVar[tuple[int, ...]] = ()
+    idim_nonlinear: ClassVar[int | None] = None
+    period_parameter: ClassVar[int | None] = None
+    n_starts: ClassVar[int] = 1
+    always_fitted: ClassVar[bool] = False
+
+    # -- parameters ----------------------------------------------------------------------------
+    def free(self, effects: Sequence[str]) -> tuple[int, ...]:
+        """Plant entries that are free parameters given the model's ``effects``."""
+        return self.parameters
+
+    def available(self, prep: Prepared) -> bool:
+        """Whether the run can show the effect at all (beyond ``needs_reversals``)."""
+        return True
+
+    def switched_on(self, p: np.ndarray, prep: Prepared) -> np.ndarray:
+        """Plant row with the effect switched on at neutral values (a fit's start)."""
+        return p.copy()
+
+    def zeroed(self, p: np.ndarray, effects: Sequence[str]) -> np.ndarray:
+        """Plant row with the effect switched off (its sizes zeroed, its shape kept)."""
+        q = p.copy()
+        for i in self.free(effects):
+            if i not in self.shape_parameters:
+                q[i] = 0.0
+        return q
+
+    @abstractmethod
+    def bounds(self, i: int, value: float, b: Bounds) -> Param:
+        """Bounds and scaling of entry ``i`` (current value ``value``) on a run."""
+
+    @abstractmethod
+    def clip(self, i: int, value: float, b: Bounds) -> float:
+        """A linearised start of entry ``i`` clipped into its plausible range."""
+
+    def probe_step(self, i: int, value: float, b: Bounds) -> float:
+        """Finite-difference step of entry ``i`` around a start."""
+        if i in self.force_parameters:
+            return 0.2 * abs(value) + 0.02 * b.force
+        return 0.2 * abs(value) + 0.05
+
+    # -- the position screen -------------------------------------------------------------------
+    @abstractmethod
+    def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
+               y: np.ndarray) -> list[Probe]:
+        """Probes of the linearised position screen around plant row ``p`` (effect on).
+
+        ``y`` is the current model's free-run position (its residual locates periods).
+        """
+
+    # -- force effects: inverse dynamics -------------------------------------------------------
+    def idim_columns(self, p: np.ndarray, effects: Sequence[str], x: np.ndarray,
+                     v: np.ndarray) -> tuple[np.ndarray, tuple[int, ...], np.ndarray]:
+        """Regressors in the inverse dynamics ``u = M a + B v + F_eff``.
+
+        The force is linear in the returned coefficients once :attr:`idim_nonlinear` is fixed
+        at ``p``. Returns the columns (K, q), the plant entries the coefficients map to, and
+        the factor from coefficient to entry (0: the coefficient divided by the Coulomb level).
+        """
+        raise ValueError(f"effect={self.name!r} is not a force effect with inverse-dynamics "
+                         "regressors")
+
+    def idim_key(self, p: np.ndarray, effects: Sequence[str]) -> tuple[Any, ...]:
+        """What the regressors depend on besides the motion (their cache key)."""
+        nl = self.idim_nonlinear
+        return (float(p[nl]) if nl is not None else None,)
+
+    def idim_grid(self, idim: Any, effects: tuple[str, ...], p: np.ndarray, rows: np.ndarray,
+                  start: bool) -> np.ndarray:
+        """Values of :attr:`idim_nonlinear` to try (all of them to find it, ``start=True``)."""
+        raise ValueError(f"effect={self.name!r} has no nonlinear parameter")
+
+    def idim_bracket(self, best: float, grid: np.ndarray, start: bool) -> tuple[float, float]:
+        """Log-coordinate bracket of the continuous refinement around the best grid value."""
+        if start and grid.size > 1:
+            ratio = float(grid[1] / grid[0])
+            return float(np.log(best / ratio)), float(np.log(best * ratio))
+        return float(np.log(best)) - 0.2, float(np.log(best)) + 0.2
+
+    # -- output effects ------------------------------------------------------------------------
+    def output_start(self, model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
+                     y: np.ndarray, mask: np.ndarray, simulate: SimulateFn) -> GreyBox:
+        """Start of an output effect's fit on the samples ``mask`` (``model`` has it on).
+
+        ``simulate(models, prep, w)`` runs models free (for starts found by simulation).
+        """
+        raise ValueError(f"effect={self.name!r} is not an output effect")
+
+    # -- reports -------------------------------------------------------------------------------
+    @abstractmethod
+    def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
+        """Fitted parameters in SI units, keyed ``symbol_unit`` (forces in ``force_unit``)."""

@@ -1,0 +1,96 @@
+"""Cogging: a force periodic in position (motor cogging, screw or motor ripple)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.effects.base import Effect, Probe
+from fricbench.sysid.diagnose.parameters import Bounds, Param
+from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.signals import MIN_PERIODS_IN_STROKE, period_candidates
+
+
+class Cogging(Effect):
+    """``F = A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)``.
+
+    Its period comes from the peaks of the residual's spectrum against position; the
+    linearised screen ranks a ripple's response through a loop with stiction poorly, so
+    several periods are fitted for real at every step.
+    """
+
+    name = "cogging"
+    kind = "force"
+    summary = "a force periodic in position (cogging, screw or motor ripple)"
+    parameters = (CL.I_COGA, CL.I_COGB, CL.I_COGP)
+    shape_parameters = (CL.I_COGP,)
+    force_parameters = (CL.I_COGA, CL.I_COGB)
+    idim_nonlinear = CL.I_COGP
+    period_parameter = CL.I_COGP
+    n_starts = 3
+    always_fitted = True
+
+    def bounds(self, i: int, value: float, b: Bounds) -> Param:
+        if i == CL.I_COGP:
+            # the period is found by the spectrum and only refined by the fit
+            return Param(i, True, value * 0.98, value * 1.02, 1.0)
+        return Param(i, False, -2.0 * b.force, 2.0 * b.force, b.force)
+
+    def clip(self, i: int, value: float, b: Bounds) -> float:
+        if i == CL.I_COGP:
+            return value
+        return float(np.clip(value, -1.5 * b.force, 1.5 * b.force))
+
+    def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
+               y: np.ndarray) -> list[Probe]:
+        r = prep.x - y
+        v = prep.vf
+        moving = np.abs(v) > 0.05 * b.v_max
+        lo = max(1e-4, 20.0 * prep.noise.rms)
+        periods: list[float] = []
+        for sgn in (1.0, -1.0):
+            sel = moving & (np.sign(v) == sgn)
+            periods += period_candidates(prep.xf, r, sel, lo, b.stroke / MIN_PERIODS_IN_STROKE,
+                                         n_best=2)
+        uniq: list[float] = []
+        for per in periods:
+            if all(abs(per / q - 1.0) > 0.02 for q in uniq):
+                uniq.append(per)
+        return [({CL.I_COGA: 0.2 * b.force, CL.I_COGB: 0.2 * b.force}, {CL.I_COGP: per})
+                for per in uniq[:3]]
+
+    def idim_columns(self, p: np.ndarray, effects: Sequence[str], x: np.ndarray,
+                     v: np.ndarray) -> tuple[np.ndarray, tuple[int, ...], np.ndarray]:
+        ph = 2.0 * np.pi * x / p[CL.I_COGP]
+        return np.column_stack([np.sin(ph), np.cos(ph)]), (CL.I_COGA, CL.I_COGB), np.ones(2)
+
+    def idim_grid(self, idim: Any, effects: tuple[str, ...], p: np.ndarray, rows: np.ndarray,
+                  start: bool) -> np.ndarray:
+        if not start:
+            return np.array([p[CL.I_COGP]])
+        pr = idim.prep
+        moving = np.abs(idim.v_dec) > 0.05 * pr.v_max
+        fast = np.abs(pr.vf) > 0.05 * pr.v_max
+        # shortest period: above the noise, and at least 4 samples at a typical speed
+        lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
+            np.abs(pr.vf[fast]))) if np.any(fast) else 1e-4)
+        hi = pr.stroke / MIN_PERIODS_IN_STROKE
+        base = tuple(e for e in effects if e != self.name)
+        pb, _ = idim._solve(base, p, rows)
+        resid = idim.u_dec - idim.predict(pb)
+        return np.array(period_candidates(idim.x_dec, resid, moving & rows, lo, hi, n_best=4))
+
+    def idim_bracket(self, best: float, grid: np.ndarray, start: bool) -> tuple[float, float]:
+        # refine in frequency: 2 % of the spatial frequency from a start, 1 % otherwise
+        df = 1.0 / best * (0.01 if not start else 0.02)
+        return (math.log(1.0 / (1.0 / best + df)), math.log(1.0 / max(1.0 / best - df, 1e-12)))
+
+    def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
+        amp = math.hypot(p[CL.I_COGA], p[CL.I_COGB])
+        # A_s sin(th) + A_c cos(th) = A sin(th + phi)
+        return {f"amplitude_{force_unit}": amp, "period_m": float(p[CL.I_COGP]),
+                "phase_rad": math.atan2(p[CL.I_COGB], p[CL.I_COGA])}

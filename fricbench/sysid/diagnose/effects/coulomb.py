@@ -1,0 +1,42 @@
+"""Coulomb friction: a force of constant level opposing the motion."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.effects.base import Effect, Probe
+from fricbench.sysid.diagnose.parameters import Bounds, Param
+from fricbench.sysid.diagnose.prepared import Prepared
+
+
+class CoulombFriction(Effect):
+    """``F = s(x) sgn(v) fc``; at rest up to the static level holds the axis (stiction)."""
+
+    name = "coulomb_friction"
+    kind = "force"
+    needs_reversals = True
+    summary = "a friction force of constant level opposing the motion"
+    parameters = (CL.I_FC,)
+    force_parameters = (CL.I_FC,)
+    nonnegative = (CL.I_FC,)
+
+    def bounds(self, i: int, value: float, b: Bounds) -> Param:
+        return Param(i, False, 0.0, 2.0 * b.force, b.force)
+
+    def clip(self, i: int, value: float, b: Bounds) -> float:
+        return min(max(value, 0.02 * b.force), 1.5 * b.force)
+
+    def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
+               y: np.ndarray) -> list[Probe]:
+        return [({CL.I_FC: 0.3 * b.force}, {})]
+
+    def idim_columns(self, p: np.ndarray, effects: Sequence[str], x: np.ndarray,
+                     v: np.ndarray) -> tuple[np.ndarray, tuple[int, ...], np.ndarray]:
+        # F = fc sgn(v)
+        return np.sign(v)[:, None], (CL.I_FC,), np.ones(1)
+
+    def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
+        return {f"fc_{force_unit}": float(p[CL.I_FC])}

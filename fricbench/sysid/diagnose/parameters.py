@@ -1,0 +1,103 @@
+"""The free parameters of a grey-box fit and the physical ranges of one run.
+
+:class:`Param` maps one controller gain or plant entry to the optimiser's coordinate (a
+logarithm for positive parameters spanning decades, a scaled value otherwise) within physical
+bounds; :class:`Bounds` holds the scales of a run (force, stroke, speed, duration, noise) that
+every effect's bounds, starts and probes are expressed in.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from fricbench.sysid.diagnose.models import GreyBox
+
+__all__ = ["Param", "Bounds"]
+
+
+@dataclass(frozen=True)
+class Param:
+    """One free parameter of an output-error fit.
+
+    Attributes
+    ----------
+    target : str or int
+        Controller attribute (``"wv"``, ``"kp"``, ...) or plant index (``closed_loop.I_*``).
+    log : bool
+        Optimised as a logarithm (positive parameters spanning decades).
+    lo, hi : float
+        Physical bounds.
+    scale : float
+        Typical magnitude (optimiser scaling and finite-difference step).
+    """
+
+    target: str | int
+    log: bool
+    lo: float
+    hi: float
+    scale: float
+
+    def get(self, model: GreyBox) -> float:
+        """Physical value in ``model``."""
+        if isinstance(self.target, str):
+            ctrl = model.controller
+            if self.target.endswith("_per_wv"):
+                return float(getattr(ctrl, self.target[:-7])) / float(ctrl.wv)  # type: ignore
+            return float(getattr(ctrl, self.target))
+        return float(model.plant[self.target])
+
+    def to_theta(self, value: float) -> float:
+        """Optimiser coordinate of a physical value."""
+        v = min(max(value, self.lo), self.hi)
+        return math.log(v) if self.log else v / self.scale
+
+    def from_theta(self, theta: float) -> float:
+        """Physical value of an optimiser coordinate."""
+        return math.exp(theta) if self.log else theta * self.scale
+
+    def bounds(self) -> tuple[float, float]:
+        """Optimiser bounds."""
+        if self.log:
+            return math.log(self.lo), math.log(self.hi)
+        return self.lo / self.scale, self.hi / self.scale
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Physical ranges of the parameters of one run.
+
+    Attributes
+    ----------
+    force : float
+        Force scale: largest effort magnitude (effort unit, or m/s^2 without effort).
+    stroke : float
+        Range of motion, m.
+    v_max : float
+        Largest reference speed, m/s.
+    duration : float
+        Length of the run, s.
+    ts : float
+        Sample time, s.
+    noise : float
+        Noise floor of the position, m.
+    """
+
+    force: float
+    stroke: float
+    v_max: float
+    duration: float
+    ts: float
+    noise: float
+
+    @property
+    def damping_max(self) -> float:
+        """Largest viscous coefficient: the whole force at a tenth of the top speed."""
+        return 10.0 * self.force / max(self.v_max, 1e-9)
+
+    @property
+    def damping_scale(self) -> float:
+        """Typical viscous coefficient: the force scale at the top speed."""
+        return max(self.force / max(self.v_max, 1e-9), 1e-12)

@@ -1,0 +1,116 @@
+"""The effect registry of the diagnosis, swept: every effect is a complete, consistent class."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fricbench.axis import Axis, simulate
+from fricbench.axis.plant import N_PLANT
+from fricbench.registry import DuplicateIdError, UnknownIdError
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.effects import (
+    EFFECT_NAMES,
+    Effect,
+    effect_names,
+    effect_registry,
+    get_effect,
+)
+from fricbench.sysid.diagnose.parameters import Bounds
+from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.io import validate_arrays
+from fricbench.trajectories import make_trajectory
+
+BOUNDS = Bounds(force=2.0, stroke=0.05, v_max=0.05, duration=8.0, ts=1e-3, noise=2e-7)
+
+
+@pytest.fixture(scope="module")
+def prep():  # type: ignore[no-untyped-def]
+    res = simulate(Axis(), make_trajectory("reversal_sine"), seed=0)
+    return prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
+
+
+def test_builtin_effects_in_search_order() -> None:
+    assert EFFECT_NAMES == ("coulomb_friction", "stribeck_friction", "asymmetric_friction",
+                            "force_offset", "backlash", "cogging", "position_dependent_friction",
+                            "thermal_drift")
+    assert effect_names()[: len(EFFECT_NAMES)] == EFFECT_NAMES
+
+
+@pytest.mark.parametrize("name", effect_names())
+def test_effect_is_consistent(name: str, prep) -> None:  # type: ignore[no-untyped-def]
+    e = get_effect(name)
+    assert isinstance(e, Effect) and e.name == name
+    assert e.kind in ("force", "output")
+    assert all(r in effect_names() for r in e.requires)
+    assert e.parameters and all(0 <= i < N_PLANT for i in e.parameters)
+    assert set(e.shape_parameters) <= set(e.parameters)
+    assert set(e.force_parameters) <= set(e.parameters)
+    assert e.summary
+    p = get_effect(name).switched_on(CL.default_plant(), prep)
+    for changes, fixed in e.probes(p, (name,), prep, BOUNDS, prep.x):
+        assert set(changes) <= set(e.parameters)
+        for i, v in {**changes, **fixed}.items():
+            assert math.isfinite(v), (i, v)
+            p[i] = v
+    for i in e.free((name,)):
+        prm = e.bounds(i, float(p[i]) or 1.0, BOUNDS)
+        assert prm.target == i and prm.lo < prm.hi and prm.scale > 0
+        lo, hi = prm.bounds()
+        assert math.isfinite(lo) and math.isfinite(hi) and lo < hi
+        assert math.isfinite(e.clip(i, 1e9, BOUNDS)) and math.isfinite(e.clip(i, -1e9, BOUNDS))
+    described = e.describe(p, "N")
+    assert described and all(math.isfinite(v) for v in described.values())
+    # switched off: its sizes are zero, its shape is kept
+    q = e.zeroed(p, (name,))
+    for i in e.free((name,)):
+        assert q[i] == (p[i] if i in e.shape_parameters else 0.0)
+    if e.kind == "force":
+        cols, targets, scale = e.idim_columns(p, (name,), prep.xf, prep.vf)
+        assert cols.shape == (prep.n, len(targets)) == (prep.n, scale.shape[0])
+        assert np.all(np.isfinite(cols))
+    else:
+        with pytest.raises(ValueError, match="not a force effect"):
+            e.idim_columns(p, (name,), prep.xf, prep.vf)
+
+
+def test_zeroed_plant_simulates_as_without_effect(prep) -> None:  # type: ignore[no-untyped-def]
+    """Switching an effect off through its class leaves the plant of the model without it."""
+    from fricbench.sysid.diagnose.controllers import CascadeController
+    from fricbench.sysid.diagnose.models import GreyBox, simulate_models
+
+    ctrl = CascadeController(wv=300.0, kp=100.0, ki=20.0, kvff=1.0)
+    base = GreyBox(ctrl, CL.default_plant(), ())
+    p = base.plant.copy()
+    p[CL.I_COGA], p[CL.I_COGP] = 0.5, 0.004
+    with_cog = GreyBox(ctrl, p, ("cogging",))
+    ys = simulate_models([base, with_cog, with_cog.without("cogging")], prep)[0]
+    assert not np.array_equal(ys[0], ys[1])
+    assert np.array_equal(ys[0], ys[2])
+
+
+def test_registry_errors() -> None:
+    with pytest.raises(UnknownIdError, match="did you mean 'cogging'"):
+        get_effect("coging")
+    with pytest.raises(DuplicateIdError):
+        effect_registry.register("cogging", "fricbench.sysid.diagnose.effects.cogging:Cogging")
+
+
+def test_plugin_effect_joins_the_search_order() -> None:
+    """A third-party effect registers by id and is tried after the built-in ones."""
+    from fricbench.sysid.diagnose.effects.offset import ForceOffset
+
+    class Gravity(ForceOffset):
+        name = "gravity_test"
+        summary = "a test plug-in"
+
+    effect_registry.register("gravity_test", Gravity)
+    try:
+        assert effect_names()[-1] == "gravity_test"
+        assert get_effect("gravity_test").name == "gravity_test"
+    finally:
+        effect_registry.unregister("gravity_test")
+        get_effect.cache_clear()
+    assert "gravity_test" not in effect_names()
