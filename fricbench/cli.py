@@ -25,18 +25,14 @@ def _cmd_list(args: argparse.Namespace) -> int:
     from fricbench.compensators import compensator_registry
     from fricbench.friction import friction_registry
     from fricbench.gym import env_ids
+    from fricbench.predictors import predictor_registry
     from fricbench.trajectories import trajectory_registry
 
     sections = [("friction models", friction_registry.ids()),
                 ("trajectories", trajectory_registry.ids()),
-                ("environments", env_ids())]
-    try:
-        from fricbench.predictors import predictor_registry
-
-        sections.append(("predictors", predictor_registry.ids()))
-    except ImportError:
-        pass
-    sections.append(("compensators", compensator_registry.ids()))
+                ("environments", env_ids()),
+                ("predictors", predictor_registry.ids()),
+                ("compensators", compensator_registry.ids())]
     for title, ids in sections:
         print(f"{title}:")
         for i in ids:

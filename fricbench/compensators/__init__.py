@@ -29,21 +29,45 @@ __all__ = [
 
 compensator_registry: Registry[Compensator] = Registry("compensator", "fricbench.compensators")
 
-_BUILTIN = {
-    "none": "fricbench.compensators.none:NoCompensation",
-    "tf-precomp": "fricbench.compensators.precomp:TFPrecompensation",
-    "tf-lstm-precomp": "fricbench.compensators.precomp:TFLSTMPrecompensation",
-    "greybox-precomp": "fricbench.compensators.precomp:GreyBoxPrecompensation",
-    "friction-ff": "fricbench.compensators.friction_ff:FrictionFeedforward",
-    "kalman": "fricbench.compensators.kalman:KalmanDisturbanceObserver",
-    "ilc": "fricbench.compensators.ilc:IterativeLearningControl",
-    "rl-sac": "fricbench.compensators.rl:SACCompensator",
-    "rl-ppo": "fricbench.compensators.rl:PPOCompensator",
+_BUILTIN: dict[str, tuple[str, dict[str, Any], str]] = {
+    "none": ("fricbench.compensators.none:NoCompensation", {}, "no compensation (the reference)"),
+    "tf-precomp": ("fricbench.compensators.precomp:Precompensation", {"predictor": "tf"},
+                   "pre-compensation by the TF predictor's predicted error"),
+    "tf-lstm-precomp": ("fricbench.compensators.precomp:Precompensation",
+                        {"predictor": "tf+lstm"},
+                        "the paper: reference shifted by the TF+LSTM predicted error"),
+    "greybox-precomp": ("fricbench.compensators.precomp:Precompensation",
+                        {"predictor": "greybox", "iterations": 10, "gain": 0.5, "advance": 3},
+                        "pre-compensation refined on the identified closed loop"),
+    "friction-ff": ("fricbench.compensators.friction_ff:FrictionFeedforward", {},
+                    "model-based friction feedforward (Stribeck fit)"),
+    "kalman": ("fricbench.compensators.kalman:KalmanDisturbanceObserver", {},
+               "Kalman disturbance observer, estimate fed back as force"),
+    "ilc": ("fricbench.compensators.ilc:IterativeLearningControl", {},
+            "iterative learning control (rehearses the scored reference)"),
+    "rl-sac": ("fricbench.compensators.rl:RLCompensator", {"algo": "sac"},
+               "SAC policy (stable-baselines3) acting as a force"),
+    "rl-ppo": ("fricbench.compensators.rl:RLCompensator", {"algo": "ppo"},
+               "PPO policy (stable-baselines3) acting as a force"),
 }
-for _id, _ep in _BUILTIN.items():
-    compensator_registry.register(_id, _ep)
+for _id, (_ep, _kw, _desc) in _BUILTIN.items():
+    compensator_registry.register(_id, _ep, kwargs=_kw, description=_desc)
+
+PRECOMP_PREFIX = "precomp:"
+"""``make_compensator("precomp:<predictor id>")`` pre-compensates with any registered predictor."""
 
 
 def make_compensator(id: str, **kwargs: Any) -> Compensator:
-    """Build the compensator registered as ``id``."""
-    return compensator_registry.make(id, **kwargs)
+    """Build the compensator registered as ``id``, or ``precomp:<predictor id>``.
+
+    ``kwargs`` override the registered defaults. The instance's ``id`` is the id it was made
+    by.
+    """
+    if isinstance(id, str) and id.startswith(PRECOMP_PREFIX):
+        from fricbench.compensators.precomp import Precompensation
+
+        comp: Compensator = Precompensation(predictor=id[len(PRECOMP_PREFIX):], **kwargs)
+    else:
+        comp = compensator_registry.make(id, **kwargs)
+    comp.id = id
+    return comp

@@ -25,6 +25,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from fricbench.axis import Axis, SimulationResult
+from fricbench.exceptions import NotFittedError
 from fricbench.gym.task import FEATURES, N_BASE_FEATURES, ObservationConfig, TaskConfig
 from fricbench.trajectories import Reference
 
@@ -35,10 +36,6 @@ __all__ = [
     "NotFittedError",
     "feature_index",
 ]
-
-
-class NotFittedError(RuntimeError):
-    """``act``/``reset`` called on a learning compensator before ``fit``."""
 
 
 class CompensatorError(RuntimeError):
@@ -107,7 +104,9 @@ class Compensator(abc.ABC):
     Class attributes
     ----------------
     id : str
-        Registered id.
+        Registered id (the class's default; :func:`make_compensator` sets the id it was made
+        by, so that keyword variants of one class, ``tf-precomp`` and ``greybox-precomp``,
+        name themselves).
     action_mode : {"force", "offset"}
         The env action this compensator produces (force at the velocity-loop output, or a
         reference offset for pre-compensation).
@@ -115,7 +114,7 @@ class Compensator(abc.ABC):
         Whether :meth:`fit` must be called before use.
     """
 
-    id: ClassVar[str] = ""
+    id: str = ""
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = False
 

@@ -194,7 +194,7 @@ class FrictionFeedforward(Compensator):
         Damping of the nominal axis, N s/m (subtracted from the fitted viscous term).
     """
 
-    id: ClassVar[str] = "friction-ff"
+    id = "friction-ff"
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = True
 

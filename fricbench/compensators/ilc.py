@@ -119,7 +119,7 @@ class IterativeLearningControl(Compensator):
         update with ``keep="last"``).
     """
 
-    id: ClassVar[str] = "ilc"
+    id = "ilc"
     action_mode: ClassVar[str] = "offset"
     learns: ClassVar[bool] = False
     #: preferred env ``action_scale`` in offset mode, m per unit action
@@ -210,6 +210,6 @@ class ForceILC(IterativeLearningControl):
     ``compensator_registry.register("ilc-force", "fricbench.compensators.ilc:ForceILC")``.
     """
 
-    id: ClassVar[str] = "ilc-force"
+    id = "ilc-force"
     action_mode: ClassVar[str] = "force"
     action_scale: ClassVar[float] = 600.0

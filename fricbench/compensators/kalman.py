@@ -113,7 +113,7 @@ class KalmanDisturbanceObserver(Compensator):
     context, as identified at commissioning.
     """
 
-    id: ClassVar[str] = "kalman"
+    id = "kalman"
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = False
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
-
 import numpy as np
 
 from fricbench.compensators.base import Compensator
@@ -14,7 +12,7 @@ __all__ = ["NoCompensation"]
 class NoCompensation(Compensator):
     """Always acts 0: what the axis does on its own."""
 
-    id: ClassVar[str] = "none"
+    id = "none"
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
         return np.zeros(self.context.n_axes)

@@ -14,6 +14,7 @@ The env runs in offset mode with ``action_scale`` m per unit action.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any, ClassVar
 
 import numpy as np
@@ -22,27 +23,26 @@ from fricbench._validation import check_int, check_positive, check_range
 from fricbench.axis import simulate
 from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
 from fricbench.compensators.training_data import env_setup, training_references
+from fricbench.predictors import make_predictor, predictor_registry
+from fricbench.predictors.precomp import precompensation_offset
+from fricbench.registry import did_you_mean
 
-__all__ = ["Precompensation", "TFPrecompensation", "TFLSTMPrecompensation",
-           "GreyBoxPrecompensation"]
-
-
-def _predictor_api() -> tuple[Any, Any]:
-    """``make_predictor`` and ``precompensation_offset``; ImportError when not installed."""
-    try:
-        from fricbench.predictors import make_predictor
-        from fricbench.predictors.precomp import precompensation_offset
-    except ImportError as exc:
-        raise ImportError(f"pre-compensation needs fricbench.predictors (make_predictor, "
-                          f"predictors.precomp.precompensation_offset): {exc}") from exc
-    return make_predictor, precompensation_offset
+__all__ = ["Precompensation"]
 
 
 class Precompensation(Compensator):
-    """Reference offset from a fitted tracking-error predictor.
+    """Reference offset from a fitted tracking-error predictor (any registered one).
+
+    Registered variants: ``tf-precomp`` (``predictor="tf"``), ``tf-lstm-precomp``
+    (``"tf+lstm"``, the paper's plain shift) and ``greybox-precomp`` (``"greybox"``, refined 10
+    times with gain 0.5, each correction 3 samples early: the setting ``fricbench reproduce``
+    picks for it on its training references). Any registered predictor is benchable as
+    ``precomp:<predictor id>`` (:func:`fricbench.compensators.make_compensator`).
 
     Parameters
     ----------
+    predictor : str
+        Registered predictor id (``fricbench list`` shows them).
     n_runs : int
         Training references recorded in :meth:`fit`.
     run_duration : float
@@ -54,26 +54,29 @@ class Precompensation(Compensator):
     advance : int
         Samples by which each correction is applied earlier (phase lead).
     predictor_kwargs : dict or None
-        Constructor keywords of the predictor, over :attr:`predictor_defaults`.
+        Constructor keywords of the predictor. Predictors that take ``n_threads`` and
+        ``verbose`` get 1 and 0 unless given here (the bench fans out over cores itself).
 
     Attributes
     ----------
-    predictor_ : object
+    predictor_ : Predictor
         The fitted predictor.
     """
 
-    predictor_id: ClassVar[str] = ""
-    #: predictor keywords used unless ``predictor_kwargs`` overrides them
-    predictor_defaults: ClassVar[dict[str, Any]] = {}
+    id = "precomp"
     action_mode: ClassVar[str] = "offset"
     learns: ClassVar[bool] = True
     #: preferred env ``action_scale`` in offset mode, m per unit action
     action_scale: ClassVar[float] = 1.0e-4
 
-    def __init__(self, *, n_runs: int = 4, run_duration: float = 20.0, iterations: int = 1,
-                 gain: float = 1.0, advance: int = 0,
+    def __init__(self, *, predictor: str = "tf", n_runs: int = 4, run_duration: float = 20.0,
+                 iterations: int = 1, gain: float = 1.0, advance: int = 0,
                  predictor_kwargs: dict[str, Any] | None = None) -> None:
         super().__init__()
+        if not isinstance(predictor, str) or predictor not in predictor_registry:
+            hint = did_you_mean(predictor, predictor_registry.ids())
+            raise ValueError(f"predictor={predictor!r}: not a registered predictor id{hint}; "
+                             f"expected one of {', '.join(predictor_registry.ids())}")
         check_int("n_runs", n_runs, 1, 1000)
         check_positive("run_duration", run_duration, "s")
         check_int("iterations", iterations, 1, 100)
@@ -81,29 +84,34 @@ class Precompensation(Compensator):
         check_int("advance", advance, 0, 1000)
         if predictor_kwargs is not None and not isinstance(predictor_kwargs, dict):
             raise TypeError(f"predictor_kwargs={predictor_kwargs!r}: expected a dict or None")
+        self.predictor = predictor
         self.n_runs = n_runs
         self.run_duration = run_duration
         self.iterations = iterations
         self.gain = gain
         self.advance = advance
         self.predictor_kwargs = predictor_kwargs
+        self.id = f"precomp:{predictor}"
         self._u = np.zeros((1, 1))
         self._k = 0
 
+    def _predictor_defaults(self) -> dict[str, Any]:
+        entry = predictor_registry.spec(self.predictor)
+        accepted = inspect.signature(entry.load()).parameters
+        return {k: v for k, v in (("n_threads", 1), ("verbose", 0)) if k in accepted}
+
     def fit(self, env_id: str, *, seed: int = 0) -> Precompensation:
         """Fit the predictor on uncompensated training runs of ``env_id``'s nominal axis."""
-        make_predictor, _ = _predictor_api()
         axis, _ = env_setup(env_id)
         refs = training_references(self.n_runs, seed=seed, duration=self.run_duration,
                                    ts=axis.controller.ts)
         runs = [simulate(axis, r, seed=seed + i) for i, r in enumerate(refs)]
-        kwargs = {**self.predictor_defaults, **(self.predictor_kwargs or {})}
-        self.predictor_ = make_predictor(self.predictor_id, **kwargs).fit(runs)
+        kwargs = {**self._predictor_defaults(), **(self.predictor_kwargs or {})}
+        self.predictor_ = make_predictor(self.predictor, **kwargs).fit(runs)
         self._fitted = True
         return self
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
-        _, precompensation_offset = _predictor_api()
         ref = context.reference
         # predictors work one axis at a time: offset each coordinate of a D-axis reference
         rows = [ref] if ref.n_axes == 1 else [ref.axis(i) for i in range(ref.n_axes)]
@@ -122,38 +130,3 @@ class Precompensation(Compensator):
         k = min(self._k, self._u.shape[1] - 1)
         self._k += 1
         return self._u[:, k]
-
-
-class TFPrecompensation(Precompensation):
-    """Pre-compensation with the transfer-function predictor (``tf``)."""
-
-    id: ClassVar[str] = "tf-precomp"
-    predictor_id: ClassVar[str] = "tf"
-
-
-class TFLSTMPrecompensation(Precompensation):
-    """Pre-compensation with the TF + LSTM residual predictor (``tf+lstm``)."""
-
-    id: ClassVar[str] = "tf-lstm-precomp"
-    predictor_id: ClassVar[str] = "tf+lstm"
-    #: one torch thread (the bench fans out over cores itself), silent training
-    predictor_defaults: ClassVar[dict[str, Any]] = {"n_threads": 1, "verbose": 0}
-
-
-class GreyBoxPrecompensation(Precompensation):
-    """Pre-compensation with the identified closed loop (``greybox``).
-
-    The offset is refined on the model 10 times with gain 0.5, each correction 3 samples
-    early: the setting ``fricbench reproduce`` picks for this predictor on its training
-    references (a one-shot shift moves the breakaway and leaves most of the spike; the model
-    is cheap to run, so iterating on it costs little).
-    """
-
-    id: ClassVar[str] = "greybox-precomp"
-    predictor_id: ClassVar[str] = "greybox"
-
-    def __init__(self, *, n_runs: int = 4, run_duration: float = 20.0, iterations: int = 10,
-                 gain: float = 0.5, advance: int = 3,
-                 predictor_kwargs: dict[str, Any] | None = None) -> None:
-        super().__init__(n_runs=n_runs, run_duration=run_duration, iterations=iterations,
-                         gain=gain, advance=advance, predictor_kwargs=predictor_kwargs)

@@ -19,12 +19,13 @@ from typing import ClassVar
 
 import numpy as np
 
+from fricbench._validation import check_choice
 from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
 from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
 from fricbench.compensators.training_data import env_setup
 from fricbench.gym.task import n_features
 
-__all__ = ["RLCompensator", "SACCompensator", "PPOCompensator", "shipped_policy"]
+__all__ = ["RLCompensator", "shipped_policy"]
 
 
 def shipped_policy(comp_id: str) -> Path:
@@ -35,10 +36,16 @@ def shipped_policy(comp_id: str) -> Path:
 class RLCompensator(Compensator):
     """A trained actor network acting in the env loop.
 
+    Registered variants: ``rl-sac`` (``algo="sac"``: soft actor-critic, deterministic actor
+    ``tanh(mu(obs))``) and ``rl-ppo`` (``algo="ppo"``: proximal policy optimisation, actor mean
+    clipped to [-1, 1]), both trained with stable-baselines3.
+
     Parameters
     ----------
+    algo : {"sac", "ppo"}
+        The algorithm the policy was trained with (checked against the policy file).
     policy : str or Path or None
-        Policy JSON (weights next to it); ``None``: the shipped policy of this id.
+        Policy JSON (weights next to it); ``None``: the shipped policy ``rl-<algo>``.
 
     Attributes
     ----------
@@ -46,12 +53,14 @@ class RLCompensator(Compensator):
         The loaded actor (after :meth:`fit`).
     """
 
-    algo: ClassVar[str] = ""
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = True
 
-    def __init__(self, *, policy: str | Path | None = None) -> None:
+    def __init__(self, *, algo: str = "sac", policy: str | Path | None = None) -> None:
         super().__init__()
+        check_choice("algo", algo, ("sac", "ppo"))
+        self.algo = algo
+        self.id = f"rl-{algo}"
         if policy is not None and not isinstance(policy, (str, Path)):
             raise TypeError(f"policy={policy!r}: expected a path to a policy JSON or None")
         self.policy = policy
@@ -59,7 +68,7 @@ class RLCompensator(Compensator):
     @property
     def policy_path(self) -> Path:
         """The policy JSON this compensator loads."""
-        return shipped_policy(self.id) if self.policy is None else Path(self.policy)
+        return shipped_policy(f"rl-{self.algo}") if self.policy is None else Path(self.policy)
 
     def fit(self, env_id: str, *, seed: int = 0) -> RLCompensator:
         """Load the trained policy and check it fits ``env_id`` (no training here).
@@ -102,17 +111,3 @@ class RLCompensator(Compensator):
         d = self.context.n_axes
         rows = observation[: d * self._nf].reshape(d, self._nf)
         return self.policy_(rows)[:, 0] * self._gain
-
-
-class SACCompensator(RLCompensator):
-    """Soft actor-critic agent (stable-baselines3), deterministic actor ``tanh(mu(obs))``."""
-
-    id: ClassVar[str] = "rl-sac"
-    algo: ClassVar[str] = "sac"
-
-
-class PPOCompensator(RLCompensator):
-    """Proximal policy optimisation agent (stable-baselines3), actor mean clipped to [-1, 1]."""
-
-    id: ClassVar[str] = "rl-ppo"
-    algo: ClassVar[str] = "ppo"

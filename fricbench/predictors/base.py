@@ -49,6 +49,7 @@ from fricbench._safe_load import (
     read_file,
     read_members,
 )
+from fricbench.exceptions import NotFittedError
 from fricbench.registry import RegistryEntry
 from fricbench.sysid.friction_error import find_events
 from fricbench.trajectories.base import Reference
@@ -60,10 +61,6 @@ FORMAT_VERSION = 1
 _FORMAT_NAME = "fricbench.predictor"
 
 P = TypeVar("P", bound="Predictor")
-
-
-class NotFittedError(RuntimeError):
-    """``predict`` (or ``save``) called before ``fit``."""
 
 
 class PredictorFileError(ValueError):

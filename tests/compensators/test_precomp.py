@@ -27,3 +27,26 @@ def test_greybox_precomp_cuts_the_m_serial_error() -> None:
         progress=False)}
     assert all(r.status == "ok" for r in recs.values())
     assert recs["greybox-precomp"].max_error < 0.4 * recs["none"].max_error
+
+
+def test_any_registered_predictor_is_a_precompensation_by_id() -> None:
+    from fricbench.compensators import make_compensator
+    from fricbench.compensators.precomp import Precompensation
+
+    comp = make_compensator("precomp:tf+lstm-phys", n_runs=1)
+    assert isinstance(comp, Precompensation)
+    assert comp.id == "precomp:tf+lstm-phys" and comp.predictor == "tf+lstm-phys"
+    # the registered variants are the same class with other keywords, named by their id
+    grey = make_compensator("greybox-precomp")
+    assert type(grey) is Precompensation and grey.id == "greybox-precomp"
+    assert (grey.predictor, grey.iterations, grey.gain, grey.advance) == ("greybox", 10, 0.5, 3)
+    with pytest.raises(ValueError, match=r"predictor='tf\+lstmm'.*did you mean 'tf\+lstm"):
+        make_compensator("precomp:tf+lstmm")
+
+
+def test_one_not_fitted_error() -> None:
+    from fricbench.compensators import NotFittedError as CompNotFitted
+    from fricbench.exceptions import NotFittedError
+    from fricbench.predictors import NotFittedError as PredNotFitted
+
+    assert CompNotFitted is NotFittedError is PredNotFitted

@@ -20,6 +20,7 @@ from fricbench.sysid.diagnose.models import (
     simulate_models,
 )
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 
 __all__ = ["LinearTF", "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort",
            "force_scale", "starting_controllers", "friction_aware_loop"]
@@ -47,10 +48,6 @@ class LinearTF:
 def fit_linear_tf(prep: Prepared, orders: tuple[tuple[int, int], ...] = ((2, 1), (3, 2))
                   ) -> LinearTF:
     """Fit ``fricbench.sysid.tf_fit.fit_tf`` of each order; keep the best free-run fit."""
-    try:
-        from fricbench.sysid.tf_fit import fit_tf, simulate_tf
-    except ImportError:  # the shared module is optional for the diagnosis
-        return LinearTF(None, None, (0, 0))
     best: LinearTF | None = None
     best_sse = np.inf
     for n_poles, n_zeros in orders:
