@@ -1,16 +1,32 @@
 """Leaderboard files: ``leaderboards/<env>.csv`` (raw rows), ``.md`` (tables), ``plots/``.
 
-Writes are atomic (temp file + rename). A re-run replaces the rows it produced (same env,
-compensator, trajectory, seed) and keeps every other row.
+A cell is one (env, compensator, trajectory, seed). A re-run replaces the rows of the cells it
+ran and keeps every other row, except that a failed run never replaces a good row: the table
+keeps the last good row of the cell, and the failure goes to ``<env>.failures.csv`` beside it
+(the latest failure of each cell that has not succeeded since; the file is removed when no such
+cell is left). A cell that never succeeded is in the table as a ``failed`` row. The ``Failed
+runs`` section of the ``.md`` lists both kinds.
+
+Per-step ``act`` times depend on the machine and its load, so they are kept out of these
+tables: they go to ``timings/<env>.csv`` (untracked: ``leaderboards/timings/`` is in
+``.gitignore``), and a re-run of the same code on the same seeds rewrites the tables with the
+same bytes.
+
+Every write is atomic (temp file + rename), and the read-merge-write of an env's files runs
+under an exclusive ``fcntl.flock`` on ``<env>.lock`` beside them, so two benches writing the
+same table at once lose no rows.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import fcntl
 import io
 import math
+import os
 from collections import defaultdict
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -20,15 +36,22 @@ from fricbench.bench.runner import EpisodeRecord
 
 __all__ = [
     "CSV_COLUMNS",
+    "FAILURE_COLUMNS",
     "TARGETS",
+    "TIMING_COLUMNS",
     "env_file_stem",
     "summarise",
     "write_leaderboards",
 ]
 
-CSV_COLUMNS = ("env", "compensator", "trajectory", "seed", "status", "max_um", "rms_um",
-               "reversal_peak_um", "circular_deviation_um", "reversal_spike_um",
-               "improvement_max_pct", "effort_rms", "effort_unit", "step_us", "reason")
+_KEY = ("env", "compensator", "trajectory", "seed")
+CSV_COLUMNS = (*_KEY, "status", "max_um", "rms_um", "reversal_peak_um",
+               "circular_deviation_um", "reversal_spike_um", "improvement_max_pct", "effort_rms",
+               "effort_unit", "reason")
+# untracked: timings/<env>.csv
+TIMING_COLUMNS = (*_KEY, "step_us")
+# <env>.failures.csv: the latest failure of each cell not run successfully since
+FAILURE_COLUMNS = (*_KEY, "commit", "reason")
 
 # issue targets: minimum median cut of max |e| against `none` on held-out m_serial and curve
 TARGETS = {"ilc": 90.0, "kalman": 50.0, "rl-sac": 30.0}
@@ -57,10 +80,43 @@ def _record_rows(records: Iterable[EpisodeRecord]) -> list[dict[str, str]]:
             "circular_deviation_um": _um(r.circular_deviation),
             "reversal_spike_um": _um(r.reversal_spike), "improvement_max_pct": "",
             "effort_rms": eff, "effort_unit": {"N": "N", "m": "um"}.get(r.effort_unit, ""),
-            "step_us": "" if math.isnan(r.step_time) else f"{r.step_time * 1e6:.2f}",
             "reason": r.reason,
         })
     return rows
+
+
+def _timing_rows(records: Iterable[EpisodeRecord]) -> list[dict[str, str]]:
+    return [{"env": r.env, "compensator": r.compensator, "trajectory": r.trajectory,
+             "seed": str(r.seed), "step_us": f"{r.step_time * 1e6:.2f}"}
+            for r in records if r.status == "ok" and not math.isnan(r.step_time)]
+
+
+def _key(row: dict[str, str]) -> tuple[str, str, str]:
+    return row.get("compensator", ""), row.get("trajectory", ""), row.get("seed", "")
+
+
+def _sort_key(row: dict[str, str]) -> tuple[bool, str, str, int]:
+    return row["compensator"] != "none", row["compensator"], row["trajectory"], int(row["seed"])
+
+
+def _csv_text(rows: list[dict[str, str]], columns: Sequence[str]) -> str:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return buf.getvalue()
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``path`` (created if missing; never removed)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock
 
 
 def _read_csv(path: Path) -> list[dict[str, str]]:
@@ -95,7 +151,7 @@ def summarise(rows: list[dict[str, str]]) -> dict[str, dict[str, dict[str, float
     for r in rows:
         if r["status"] != "ok":
             continue
-        for key in ("max_um", "rms_um", "reversal_peak_um", "improvement_max_pct", "step_us",
+        for key in ("max_um", "rms_um", "reversal_peak_um", "improvement_max_pct",
                     "circular_deviation_um"):
             if r.get(key):
                 acc[r["compensator"]][r["trajectory"]][key].append(float(r[key]))
@@ -103,8 +159,8 @@ def summarise(rows: list[dict[str, str]]) -> dict[str, dict[str, dict[str, float
             for c, tr in acc.items()}
 
 
-def _markdown(env_id: str, rows: list[dict[str, str]], command: str, commit: str,
-              description: str, fit_on: str) -> str:
+def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, str]],
+              command: str, commit: str, description: str, fit_on: str) -> str:
     summary = summarise(rows)
     trajs = sorted({r["trajectory"] for r in rows})
     comps = sorted({r["compensator"] for r in rows}, key=lambda c: (c != "none", c))
@@ -121,9 +177,8 @@ def _markdown(env_id: str, rows: list[dict[str, str]], command: str, commit: str
     head = "| compensator | " + " | ".join(trajs) + " | reversal peak (um, median) |"
     if circle:
         head += " circular dev. (um) |"
-    head += " act time (us/step) |\n"
-    out.write(head)
-    out.write("|" + "---|" * (len(trajs) + 3 + (1 if circle else 0)) + "\n")
+    out.write(head + "\n")
+    out.write("|" + "---|" * (len(trajs) + 2 + (1 if circle else 0)) + "\n")
     for c in comps:
         cells = []
         for t in trajs:
@@ -143,25 +198,27 @@ def _markdown(env_id: str, rows: list[dict[str, str]], command: str, commit: str
             cd = _median([m["circular_deviation_um"] for m in summary.get(c, {}).values()
                           if "circular_deviation_um" in m])
             line += f" {cd:.2f} |"
-        st = _median([m["step_us"] for m in summary.get(c, {}).values() if "step_us" in m])
-        line += f" {st:.1f} |\n"
-        out.write(line)
+        out.write(line + "\n")
     targets = _target_lines(summary, env_id)
     if targets:
         out.write("\n## Targets (median over seeds, held-out m_serial and curve)\n\n")
         out.writelines(targets)
-    failed = [r for r in rows if r["status"] != "ok"]
+    ok_cells = {_key(r) for r in rows if r["status"] == "ok"}
+    failed_cells = {_key(f) for f in failures}
+    failed = [(f, _key(f) in ok_cells) for f in failures]
+    failed += [(r, False) for r in rows if r["status"] != "ok" and _key(r) not in failed_cells]
     if failed:
-        out.write("\n## Failed runs\n\n| compensator | trajectory | seed | reason |\n"
-                  "|---|---|---|---|\n")
+        out.write("\n## Failed runs\n\n| compensator | trajectory | seed | reason | table shows |\n"
+                  "|---|---|---|---|---|\n")
         seen = set()
-        for r in failed:
-            key = (r["compensator"], r["reason"])
+        for r, kept in sorted(failed, key=lambda fk: _sort_key(fk[0])):
+            key = (r["compensator"], r["reason"], kept)
             if key in seen:
                 continue
             seen.add(key)
+            shows = "the earlier good row" if kept else "failed"
             out.write(f"| `{r['compensator']}` | {r['trajectory']} | {r['seed']} | "
-                      f"{r['reason'].replace('|', '/')} |\n")
+                      f"{r['reason'].replace('|', '/')} | {shows} |\n")
     plots = sorted({r["trajectory"] for r in rows})
     out.write("\n## Error traces (first seed)\n\n")
     for t in plots:
@@ -181,15 +238,16 @@ def _target_lines(summary: dict[str, dict[str, dict[str, float]]], env_id: str) 
 
     cuts = {c: cut(c) for c in summary if c != "none"}
     finite = {c: v for c, v in cuts.items() if not math.isnan(v)}
-    if finite:
+    # the best-compensator target speaks for the field: only when every targeted one is scored
+    if finite and all(c in finite for c in TARGETS):
         best = max(finite, key=lambda c: finite[c])
         ok = finite[best] >= TARGET_BEST
         lines.append(f"- best compensator `{best}`: {finite[best]:.1f} % (target >= "
                      f"{TARGET_BEST:.0f} %): {'met' if ok else 'MISSED'}\n")
     for c, target in TARGETS.items():
-        v = cuts.get(c, float("nan"))
-        state = "not run" if math.isnan(v) else ("met" if v >= target else "MISSED")
-        lines.append(f"- `{c}`: {v:.1f} % (target >= {target:.0f} %): {state}\n")
+        if c in finite:  # only what was run (and scored on the target trajectories)
+            lines.append(f"- `{c}`: {finite[c]:.1f} % (target >= {target:.0f} %): "
+                         f"{'met' if finite[c] >= target else 'MISSED'}\n")
     return lines
 
 
@@ -222,7 +280,9 @@ def write_leaderboards(records: Sequence[EpisodeRecord], out_dir: str | Path, co
                        commit: str, descriptions: dict[str, tuple[str, str]]) -> list[Path]:
     """Merge ``records`` into the leaderboard files of their envs; return the written paths.
 
-    ``descriptions`` maps env id to ``(description, fit_on)``.
+    ``descriptions`` maps env id to ``(description, fit_on)``. Each env's files are merged
+    under the lock of ``<env>.lock``; a failed record never replaces a good row (see the
+    module docstring).
     """
     out = Path(out_dir)
     written = []
@@ -231,29 +291,60 @@ def write_leaderboards(records: Sequence[EpisodeRecord], out_dir: str | Path, co
         by_env[r.env].append(r)
     for env_id, recs in sorted(by_env.items()):
         stem = env_file_stem(env_id)
-        csv_path = out / f"{stem}.csv"
-        new_rows = _record_rows(recs)
-        keys = {(r["compensator"], r["trajectory"], r["seed"]) for r in new_rows}
-        old = [r for r in _read_csv(csv_path)
-               if (r.get("compensator"), r.get("trajectory"), r.get("seed")) not in keys]
-        rows = [{c: r.get(c, "") for c in CSV_COLUMNS} for r in old] + new_rows
-        rows.sort(key=lambda r: (r["compensator"] != "none", r["compensator"], r["trajectory"],
-                                 int(r["seed"])))
-        _improvements(rows)
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(rows)
-        atomic_write(csv_path, buf.getvalue())
         desc, fit_on = descriptions.get(env_id, ("", env_id))
-        atomic_write(out / f"{stem}.md", _markdown(env_id, rows, command, commit, desc, fit_on))
-        written += [csv_path, out / f"{stem}.md"]
-        by_traj: dict[str, list[EpisodeRecord]] = defaultdict(list)
-        for r in recs:
-            if r.trace_t is not None:
-                by_traj[r.trajectory].append(r)
-        for traj, trs in by_traj.items():
-            p = out / "plots" / f"{stem}_{traj}.png"
-            _plot(env_id, traj, trs, p)
-            written.append(p)
+        with _locked(out / f"{stem}.lock"):
+            written += _merge_env(env_id, recs, out, stem, command, commit, desc, fit_on)
+    return written
+
+
+def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str, command: str,
+               commit: str, desc: str, fit_on: str) -> list[Path]:
+    """Read, merge and rewrite the files of one env (the caller holds its lock)."""
+    csv_path = out / f"{stem}.csv"
+    fail_path = out / f"{stem}.failures.csv"
+    time_path = out / "timings" / f"{stem}.csv"
+    new_rows = _record_rows(recs)
+    old_rows = {_key(r): {c: r.get(c, "") for c in CSV_COLUMNS} for r in _read_csv(csv_path)}
+    failures = {_key(r): {c: r.get(c, "") for c in FAILURE_COLUMNS}
+                for r in _read_csv(fail_path)}
+    merged = dict(old_rows)
+    for row in new_rows:
+        k = _key(row)
+        if row["status"] == "ok":
+            merged[k] = row
+            failures.pop(k, None)
+        else:
+            failures[k] = {**{c: row[c] for c in _KEY}, "commit": commit,
+                           "reason": row["reason"]}
+            if merged.get(k, {}).get("status") != "ok":  # never replace a good row
+                merged[k] = row
+    rows = sorted(merged.values(), key=_sort_key)
+    _improvements(rows)
+    fail_rows = sorted(failures.values(), key=_sort_key)
+    atomic_write(csv_path, _csv_text(rows, CSV_COLUMNS))
+    written = [csv_path]
+    if fail_rows:
+        atomic_write(fail_path, _csv_text(fail_rows, FAILURE_COLUMNS))
+        written.append(fail_path)
+    elif fail_path.exists():
+        fail_path.unlink()
+    atomic_write(out / f"{stem}.md",
+                 _markdown(env_id, rows, fail_rows, command, commit, desc, fit_on))
+    written.append(out / f"{stem}.md")
+    timing_new = _timing_rows(recs)
+    if timing_new:
+        timings = {_key(r): {c: r.get(c, "") for c in TIMING_COLUMNS}
+                   for r in _read_csv(time_path)}
+        timings.update((_key(r), r) for r in timing_new)
+        atomic_write(time_path, _csv_text(sorted(timings.values(), key=_sort_key),
+                                          TIMING_COLUMNS))
+        written.append(time_path)
+    by_traj: dict[str, list[EpisodeRecord]] = defaultdict(list)
+    for r in recs:
+        if r.trace_t is not None:
+            by_traj[r.trajectory].append(r)
+    for traj, trs in by_traj.items():
+        p = out / "plots" / f"{stem}_{traj}.png"
+        _plot(env_id, traj, trs, p)
+        written.append(p)
     return written

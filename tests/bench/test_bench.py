@@ -3,15 +3,28 @@
 from __future__ import annotations
 
 import csv
+import multiprocessing
+import os
+import shutil
+import signal
+import time
+from dataclasses import replace
+from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
 import pytest
 
-from fricbench.bench.leaderboard import write_leaderboards
+from fricbench.bench.leaderboard import CSV_COLUMNS, write_leaderboards
 from fricbench.bench.metrics import reversal_indices, score_run
-from fricbench.bench.runner import BenchTask, EpisodeRecord, run_benchmark, run_episode
+from fricbench.bench.runner import (
+    BenchTask,
+    EpisodeRecord,
+    run_benchmark,
+    run_episode,
+)
 from fricbench.compensators import Compensator, compensator_registry, make_compensator
+from fricbench.gym import get_spec
 
 
 class _Exploding(Compensator):
@@ -94,6 +107,133 @@ def test_leaderboard_rerun_replaces_own_rows_keeps_others(tmp_path) -> None:
     md = (tmp_path / "PaperAxis-v0.md").read_text()
     assert "cmd2" in md and "def" in md and "Seeds" in md
     assert not list(tmp_path.glob(".*"))  # no temp files left behind
+
+
+PAPER = "fricbench/PaperAxis-v0"
+DESC = {PAPER: ("d", PAPER)}
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_failed_rerun_keeps_the_good_row_and_records_the_failure(tmp_path: Path) -> None:
+    failed = EpisodeRecord(PAPER, "kalman", "m_serial", 0, status="failed",
+                           reason="RuntimeError: boom")
+    write_leaderboards([_rec("none", 0, 20.0), _rec("kalman", 0, 8.0)], tmp_path, "c", "abc",
+                       DESC)
+    write_leaderboards([failed], tmp_path, "c", "def", DESC)
+    rows = {r["compensator"]: r for r in _rows(tmp_path / "PaperAxis-v0.csv")}
+    assert rows["kalman"]["status"] == "ok" and float(rows["kalman"]["max_um"]) == 8.0
+    assert float(rows["kalman"]["improvement_max_pct"]) == pytest.approx(60.0)
+    fails = _rows(tmp_path / "PaperAxis-v0.failures.csv")
+    assert [(f["compensator"], f["seed"], f["commit"], f["reason"]) for f in fails] == [
+        ("kalman", "0", "def", "RuntimeError: boom")]
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert "| `kalman` | m_serial | 0 | RuntimeError: boom | the earlier good row |" in md
+    # a cell that never succeeded is a failed row; a later success clears the failure
+    write_leaderboards([replace(failed, compensator="ilc")], tmp_path, "c", "def", DESC)
+    assert {r["compensator"]: r["status"] for r in _rows(tmp_path / "PaperAxis-v0.csv")} == {
+        "none": "ok", "kalman": "ok", "ilc": "failed"}
+    write_leaderboards([_rec("kalman", 0, 7.0), _rec("ilc", 0, 1.0)], tmp_path, "c", "ghi",
+                       DESC)
+    assert not (tmp_path / "PaperAxis-v0.failures.csv").exists()
+    assert "Failed runs" not in (tmp_path / "PaperAxis-v0.md").read_text()
+
+
+def _write_seeds(out: str, seeds: list[int]) -> None:
+    for s in seeds:  # one read-merge-write per row: many chances to interleave
+        write_leaderboards([_rec("kalman", s, 5.0)], out, "c", "abc", DESC)
+
+
+def test_concurrent_writers_lose_no_rows(tmp_path: Path) -> None:
+    ctx = multiprocessing.get_context("fork")
+    procs = [ctx.Process(target=_write_seeds, args=(str(tmp_path), list(range(i, 60, 2))))
+             for i in range(2)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join(120)
+    assert [p.exitcode for p in procs] == [0, 0]
+    seeds = sorted(int(r["seed"]) for r in _rows(tmp_path / "PaperAxis-v0.csv"))
+    assert seeds == list(range(60))
+    assert len(_rows(tmp_path / "timings" / "PaperAxis-v0.csv")) == 60
+
+
+def test_sigkill_mid_write_leaves_whole_tables_and_no_stale_lock(tmp_path: Path) -> None:
+    proc = multiprocessing.get_context("fork").Process(
+        target=_write_seeds, args=(str(tmp_path), list(range(10_000))))
+    proc.start()
+    table = tmp_path / "PaperAxis-v0.csv"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and (not table.exists() or len(_rows(table)) < 5):
+        time.sleep(0.01)
+    os.kill(proc.pid, signal.SIGKILL)  # most likely inside a read-merge-write
+    proc.join()
+    seeds = [int(r["seed"]) for r in _rows(table)]
+    assert seeds == list(range(len(seeds))) and len(seeds) >= 5
+    assert (tmp_path / "PaperAxis-v0.md").read_text().rstrip().endswith("m_serial.png)")
+    # the killed writer's lock died with it: the next merge goes through
+    write_leaderboards([_rec("none", 0, 20.0)], tmp_path, "c", "abc", DESC)
+    assert len(_rows(table)) == len(seeds) + 1
+
+
+def test_targets_only_for_what_ran(tmp_path: Path) -> None:
+    recs = [replace(_rec(c, 0, um), trajectory=t) for t in ("m_serial", "curve")
+            for c, um in (("none", 20.0), ("kalman", 8.0), ("friction-ff", 15.0))]
+    write_leaderboards(recs, tmp_path, "c", "abc", DESC)
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert "- `kalman`: 60.0 % (target >= 50 %): met" in md
+    assert "ilc" not in md and "rl-sac" not in md and "not run" not in md
+    assert "best compensator" not in md  # a field-wide target needs the field
+    full = [replace(r, compensator=c) for r in recs if r.compensator == "kalman"
+            for c in ("ilc", "rl-sac")]
+    write_leaderboards(full, tmp_path, "c", "abc", DESC)
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert "- best compensator `ilc`: 60.0 % (target >= 80 %): MISSED" in md
+    assert "- `ilc`: 60.0 % (target >= 90 %): MISSED" in md
+
+
+def test_timings_stay_out_of_the_tables(tmp_path: Path) -> None:
+    recs = [_rec("none", 0, 20.0), _rec("kalman", 0, 8.0)]
+    write_leaderboards(recs, tmp_path / "a", "c", "abc", DESC)
+    write_leaderboards([replace(r, step_time=3.7e-5) for r in recs], tmp_path / "b", "c",
+                       "abc", DESC)
+    for name in ("PaperAxis-v0.csv", "PaperAxis-v0.md"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+    assert "step_us" not in (tmp_path / "a" / "PaperAxis-v0.csv").read_text()
+    assert "act time" not in (tmp_path / "a" / "PaperAxis-v0.md").read_text()
+    assert {r["step_us"] for r in _rows(tmp_path / "b" / "timings" / "PaperAxis-v0.csv")} == {
+        "37.00"}
+
+
+def test_rewriting_a_committed_table_drops_only_its_timing_column(tmp_path: Path) -> None:
+    """Same code, same rows: the tracked CSV and table come back minus ``step_us``/act time."""
+    committed = Path(__file__).parents[2] / "leaderboards"
+    shutil.copy(committed / "PaperAxis-v0.csv", tmp_path)
+    shutil.copy(committed / "PaperAxis-v0.md", tmp_path)
+    old_rows = _rows(tmp_path / "PaperAxis-v0.csv")
+    old_md = (tmp_path / "PaperAxis-v0.md").read_text().splitlines()
+    command = next(ln for ln in old_md if ln.startswith("- Made by:")).split("`")[1]
+    commit = next(ln for ln in old_md if ln.startswith("- Commit:")).split("`")[1]
+    r = next(r for r in old_rows if (r["compensator"], r["seed"]) == ("none", "0"))
+    rec = EpisodeRecord(PAPER, "none", r["trajectory"], 0, max_error=float(r["max_um"]) * 1e-6,
+                        rms_error=float(r["rms_um"]) * 1e-6,
+                        reversal_peak=float(r["reversal_peak_um"]) * 1e-6,
+                        effort_rms=float(r["effort_rms"]), effort_unit="N", step_time=1.0)
+    spec = get_spec(PAPER)
+    write_leaderboards([rec], tmp_path, command, commit, {PAPER: (spec.description, PAPER)})
+    assert _rows(tmp_path / "PaperAxis-v0.csv") == [
+        {c: row[c] for c in CSV_COLUMNS} for row in old_rows]
+    act = next(ln for ln in old_md if ln.startswith("| compensator |")).split(" | ")
+    drop = act.index("act time (us/step) |") if "act time (us/step) |" in act else None
+    expected = []
+    for ln in old_md:  # the table loses its last column, if it had the act-time one
+        if drop is not None and ln.startswith("|"):
+            ln = "|".join(ln.split("|")[:-2]) + "|"
+        expected.append(ln)
+    assert (tmp_path / "PaperAxis-v0.md").read_text().splitlines() == expected
 
 
 def test_run_benchmark_small_joblib() -> None:
