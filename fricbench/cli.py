@@ -9,10 +9,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from fricbench.bench.runner import EpisodeRecord
 
 __all__ = ["main"]
 
@@ -137,32 +142,86 @@ def _git_commit() -> str:
         return "unknown"
 
 
+# run_benchmark parameter -> the bench option that sets it
+_BENCH_OPTIONS = {"env_ids": "--envs", "comp_ids": "--compensators",
+                  "trajectories": "--trajectories", "seeds": "--seeds"}
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from fricbench.bench.leaderboard import write_leaderboards
-    from fricbench.bench.runner import run_benchmark
+    from fricbench.bench.runner import BenchConfigError, plan_benchmark, run_benchmark
     from fricbench.compensators import compensator_registry
     from fricbench.gym import env_ids, get_spec
 
     envs = args.envs or env_ids(benchmark_only=True)
     comps = args.compensators or compensator_registry.ids()
-    for e in envs:
-        get_spec(e)  # unknown ids fail here, with near matches
-    for c in comps:
-        compensator_registry.spec(c)
+    try:  # every id and seed, before anything is fitted
+        tasks = plan_benchmark(envs, comps, args.seeds, args.trajectories)
+    except BenchConfigError as exc:
+        print(f"fricbench bench: error: {_BENCH_OPTIONS[exc.parameter]} {exc.value}: "
+              f"{exc.problem}", file=sys.stderr)
+        return 2
     t0 = time.perf_counter()
-    records = list(run_benchmark(envs, comps, args.seeds, args.trajectories,
-                                 backend=args.backend, n_jobs=args.jobs, address=args.address))
+    records = []
+    interrupted = False
+    try:
+        for rec in run_benchmark(envs, comps, args.seeds, args.trajectories,
+                                 backend=args.backend, n_jobs=args.jobs, address=args.address):
+            records.append(rec)
+    except KeyboardInterrupt:
+        interrupted = True
     command = "fricbench " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else \
         "fricbench bench"
     descriptions = {e: (get_spec(e).description, get_spec(e).fit_on) for e in envs}
     paths = write_leaderboards(records, args.out, command, _git_commit(), descriptions)
-    n_failed = sum(r.status != "ok" for r in records)
+    failed = [r for r in records if r.status != "ok"]
     for p in paths:
         if p.suffix == ".md":
             print(p.read_text(encoding="utf-8").split("## Error traces")[0])
-    print(f"{len(records)} runs ({n_failed} failed) in {time.perf_counter() - t0:.0f} s; "
+    _print_act_times(records, args.out)
+    print(f"{len(records)} runs ({len(failed)} failed) in {time.perf_counter() - t0:.0f} s; "
           f"wrote {len(paths)} files under {args.out}/")
+    if interrupted:
+        done = {(r.env, r.compensator, r.trajectory, r.seed) for r in records}
+        missing = [t for t in tasks if (t.env, t.compensator, t.trajectory, t.seed) not in done]
+        print(f"fricbench bench: interrupted: {len(records)} of {len(tasks)} runs finished"
+              f"{' and written' if records else '; nothing written'}; "
+              f"{len(missing)} not run:", file=sys.stderr)
+        _print_cells([(t.env, t.compensator, t.trajectory, t.seed) for t in missing])
+        return 130
+    if failed:
+        print(f"fricbench bench: {len(failed)} of {len(records)} runs failed (a failure never "
+              f"replaces a good row; each is in <env>.failures.csv):", file=sys.stderr)
+        _print_cells([(r.env, r.compensator, r.trajectory, r.seed, r.reason) for r in failed])
+        return 1
     return 0
+
+
+def _print_cells(cells: list[tuple[object, ...]], limit: int = 12) -> None:
+    """Print ``(env, compensator, trajectory, seed[, reason])`` to stderr, seeds grouped."""
+    groups: dict[tuple[object, ...], list[str]] = {}
+    for env, comp, traj, seed, *reason in cells:
+        groups.setdefault((env, comp, traj, *reason), []).append(str(seed))
+    for i, (key, seeds) in enumerate(groups.items()):
+        if i == limit:
+            print(f"  ... and {len(groups) - limit} more", file=sys.stderr)
+            break
+        env, comp, traj, *reason = key
+        why = f": {reason[0]}" if reason else ""
+        print(f"  {env} {comp} {traj} seed{'s' if len(seeds) > 1 else ''} "
+              f"{', '.join(seeds)}{why}", file=sys.stderr)
+
+
+def _print_act_times(records: list[EpisodeRecord], out: str) -> None:
+    """Median per-step ``act`` time per compensator (machine-dependent, kept out of tables)."""
+    times: dict[str, list[float]] = {}
+    for r in records:
+        if r.status == "ok":
+            times.setdefault(r.compensator, []).append(r.step_time * 1e6)
+    if times:
+        med = ", ".join(f"{c} {statistics.median(v):.1f}" for c, v in sorted(times.items()))
+        print(f"act time (us/step, median of this run; in {out}/timings/, not in the tables): "
+              f"{med}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -189,7 +248,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="shorter runs (noisier)")
     p.set_defaults(func=_cmd_perf)
 
-    p = sub.add_parser("bench", help="run compensators on the benchmark envs; write leaderboards")
+    p = sub.add_parser(
+        "bench", help="run compensators on the benchmark envs; write leaderboards",
+        description="Run compensators on the benchmark envs and merge the runs into the "
+                    "leaderboards. Exit 0 when every run succeeded, 1 when a run failed (the "
+                    "tables keep the last good rows; failures in <env>.failures.csv), 2 on a "
+                    "bad option (checked before any fitting), 130 on Ctrl-C (finished runs "
+                    "written).")
     p.add_argument("--envs", nargs="+", help="env ids (default: every benchmark env)")
     p.add_argument("--compensators", nargs="+", help="compensator ids (default: all)")
     p.add_argument("--trajectories", nargs="+", help="override each env's trajectory set")
@@ -213,14 +278,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``fricbench`` console script."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Entry point of the ``fricbench`` console script (exit 130 on Ctrl-C, no traceback)."""
+    try:
+        parser = build_parser()  # imports torch: long enough to be interrupted
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        print("fricbench: interrupted", file=sys.stderr)
+        return 130
     try:
         return int(args.func(args) or 0)
     except (ValueError, TypeError, KeyError, FileNotFoundError) as exc:
         print(f"fricbench {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # bench catches its own first, to write the finished runs
+        print(f"fricbench {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

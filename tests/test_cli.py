@@ -1,14 +1,19 @@
-"""The command line: list, simulate (CSV + plot), perf keys, bench files, clear errors."""
+"""The command line: list, simulate, perf keys, bench files, clear errors and exit codes."""
 
 from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Iterator
 from pathlib import Path
+from typing import ClassVar
 
+import numpy as np
 import pytest
 
+from fricbench.bench import runner
 from fricbench.cli import main
+from fricbench.compensators import Compensator, compensator_registry
 
 
 def test_list(capsys: pytest.CaptureFixture[str]) -> None:
@@ -56,3 +61,87 @@ def test_perf_writes_exactly_the_keys(tmp_path: Path) -> None:
     assert set(data) == {"env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
                          "simulate_samples_per_s", "python_control_samples_per_s"}
     assert all(v > 0 for v in data.values())
+
+
+class _FitFails(Compensator):
+    id: ClassVar[str] = "test-fit-fails"
+
+    def fit(self, env_id: str, *, seed: int = 0) -> Compensator:
+        raise RuntimeError("no training data")
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        return np.zeros(1)
+
+
+class _Interrupts(Compensator):
+    id: ClassVar[str] = "test-interrupts"
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        raise KeyboardInterrupt  # as Ctrl-C would, in the middle of an episode
+
+
+@pytest.fixture
+def test_compensators() -> Iterator[None]:
+    for cls in (_FitFails, _Interrupts):
+        compensator_registry.register(cls.id, cls)
+    yield
+    for cls in (_FitFails, _Interrupts):
+        compensator_registry.unregister(cls.id)
+
+
+_ONE_RUN = ["--envs", "fricbench/PaperAxis-v0", "--trajectories", "s_curve", "--seeds", "0",
+            "--jobs", "1"]
+
+
+@pytest.mark.parametrize(("option", "value", "expected"), [
+    ("--trajectories", "s_crve", "--trajectories s_crve: unknown trajectory id; did you mean "
+                                 "'s_curve'"),
+    ("--trajectories", "circle", "--trajectories circle: a 2-axis trajectory; "
+                                 "fricbench/PaperAxis-v0 drives 1 axis"),
+    ("--envs", "fricbench/PaperAxs-v0", "--envs fricbench/PaperAxs-v0: unknown env id; did you "
+                                        "mean 'fricbench/PaperAxis-v0'"),
+    ("--compensators", "kalmn", "--compensators kalmn: unknown compensator id; did you mean "
+                                "'kalman'"),
+    ("--seeds", "-1", "--seeds -1: expected an integer >= 0"),
+])
+def test_bench_checks_every_id_before_fitting(option: str, value: str, expected: str,
+                                               tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    def no_fit(*args: object) -> None:
+        raise AssertionError("fitted before checking the arguments")
+
+    monkeypatch.setattr(runner, "fit_compensators", no_fit)
+    argv = {"--envs": "fricbench/PaperAxis-v0", "--compensators": "none",
+            "--trajectories": "s_curve", "--seeds": "0", option: value}
+    assert main(["bench", *(w for kv in argv.items() for w in kv), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_bench_exits_1_when_a_run_failed(tmp_path: Path, test_compensators: None,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", *_ONE_RUN, "--compensators", "test-fit-fails",
+                 "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert "1 of 1 runs failed" in err and "fit failed: RuntimeError: no training data" in err
+    with (tmp_path / "PaperAxis-v0.failures.csv").open() as fh:
+        assert [r["compensator"] for r in csv.DictReader(fh)] == ["test-fit-fails"]
+
+
+def test_bench_ctrl_c_writes_finished_runs_and_exits_130(
+        tmp_path: Path, test_compensators: None, capsys: pytest.CaptureFixture[str]) -> None:
+    # --jobs 1 runs in this process, in task order: `none` finishes, then the interrupt
+    try:
+        rc = main(["bench", *_ONE_RUN, "--compensators", "none", "test-interrupts",
+                   "--out", str(tmp_path)])
+    except KeyboardInterrupt:  # would otherwise stop the whole test session
+        pytest.fail("KeyboardInterrupt escaped `fricbench bench`")
+    assert rc == 130
+    err = capsys.readouterr().err
+    assert "interrupted: 1 of 2 runs finished and written; 1 not run:" in err
+    assert "fricbench/PaperAxis-v0 test-interrupts s_curve seed 0" in err
+    assert "Traceback" not in err
+    with (tmp_path / "PaperAxis-v0.csv").open() as fh:
+        assert [(r["compensator"], r["status"]) for r in csv.DictReader(fh)] == [("none", "ok")]
+    assert not list(tmp_path.glob(".*"))  # no temp file left

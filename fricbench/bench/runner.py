@@ -13,19 +13,44 @@ import numpy as np
 
 from fricbench.axis import SimulationResult, simulate
 from fricbench.bench.metrics import score_run
-from fricbench.compensators import Compensator, EpisodeContext, make_compensator
+from fricbench.compensators import (
+    Compensator,
+    EpisodeContext,
+    compensator_registry,
+    make_compensator,
+)
 from fricbench.gym.env import ServoAxisEnv
+from fricbench.gym.specs import env_ids as registered_env_ids
 from fricbench.gym.specs import get_spec
-from fricbench.trajectories import Reference
+from fricbench.gym.task import TrajectoryChoice, reference_for
+from fricbench.registry import did_you_mean
+from fricbench.trajectories import Reference, trajectory_registry
 
 __all__ = [
+    "BenchConfigError",
     "BenchTask",
     "EpisodeRecord",
     "bench_env",
     "fit_compensators",
+    "plan_benchmark",
     "run_benchmark",
     "run_episode",
 ]
+
+
+class BenchConfigError(ValueError):
+    """A benchmark argument that cannot run: names the parameter, the offending value and why.
+
+    Raised by :func:`plan_benchmark` (and so by :func:`run_benchmark`) before anything is
+    fitted. ``parameter`` is the argument name (``env_ids``, ``comp_ids``, ``trajectories``,
+    ``seeds``), ``value`` the offending item, ``problem`` the explanation.
+    """
+
+    def __init__(self, parameter: str, value: object, problem: str) -> None:
+        super().__init__(f"{parameter}={value!r}: {problem}")
+        self.parameter = parameter
+        self.value = value
+        self.problem = problem
 
 
 @dataclass(frozen=True)
@@ -149,50 +174,62 @@ def _fit_one(comp_id: str, fit_env: str, seed: int) -> tuple[Compensator | None,
         return None, f"fit failed: {type(exc).__name__}: {exc}"[:300]
 
 
+# map_fn(fn, arglist) yields (index into arglist, fn(*arglist[index])) as each call finishes
+MapFn = Callable[[Callable[..., Any], list[tuple[Any, ...]]], Iterable[tuple[int, Any]]]
+
+
 def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
-                     map_fn: Callable[..., Iterable[Any]]) -> dict[tuple[str, str], tuple[
-                         Compensator | None, str]]:
-    """Fit each compensator once per training env (``fit_on`` of each benchmark env)."""
+                     map_fn: MapFn) -> dict[tuple[str, str], tuple[Compensator | None, str]]:
+    """Fit each compensator once per training env (``fit_on`` of each benchmark env).
+
+    ``map_fn(fn, arglist)`` yields ``(index, fn(*arglist[index]))`` in any order.
+    """
     pairs = sorted({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
-    results = map_fn(_fit_one, [(c, f, seed) for c, f in pairs])
-    return dict(zip(pairs, results, strict=True))
+    results = dict(map_fn(_fit_one, [(c, f, seed) for c, f in pairs]))
+    return {pair: results[i] for i, pair in enumerate(pairs)}
 
 
-def _joblib_map(n_jobs: int, progress: Callable[[], None] | None) -> Callable[..., list[Any]]:
+def _indexed(i: int, fn: Callable[..., Any], args: tuple[Any, ...]) -> tuple[int, Any]:
+    return i, fn(*args)
+
+
+def _joblib_map(n_jobs: int, progress: Callable[[], None] | None) -> MapFn:
     from joblib import Parallel, delayed
 
-    def map_fn(fn: Callable[..., Any], arglist: list[tuple[Any, ...]]) -> list[Any]:
-        par = Parallel(n_jobs=n_jobs, return_as="generator")
-        out = []
-        for res in par(delayed(fn)(*args) for args in arglist):
-            out.append(res)
+    def map_fn(fn: Callable[..., Any],
+               arglist: list[tuple[Any, ...]]) -> Iterator[tuple[int, Any]]:
+        par = Parallel(n_jobs=n_jobs, return_as="generator_unordered")
+        for res in par(delayed(_indexed)(i, fn, args) for i, args in enumerate(arglist)):
             if progress:
                 progress()
-        return out
+            yield res
 
     return map_fn
 
 
-def _ray_map(address: str | None, progress: Callable[[], None] | None) -> Callable[..., list[Any]]:
+def _ray_map(address: str | None, progress: Callable[[], None] | None) -> MapFn:
     import ray
 
     if not ray.is_initialized():
         ray.init(address=address, include_dashboard=False, log_to_driver=False,
                  ignore_reinit_error=True)
 
-    def map_fn(fn: Callable[..., Any], arglist: list[tuple[Any, ...]]) -> list[Any]:
+    def map_fn(fn: Callable[..., Any],
+               arglist: list[tuple[Any, ...]]) -> Iterator[tuple[int, Any]]:
         remote = ray.remote(fn)
         futures = [remote.remote(*args) for args in arglist]
         order = {f: i for i, f in enumerate(futures)}
-        out: list[Any] = [None] * len(futures)
         pending = list(futures)
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            for f in done:
-                out[order[f]] = ray.get(f)
-                if progress:
-                    progress()
-        return out
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for f in done:
+                    if progress:
+                        progress()
+                    yield order[f], ray.get(f)
+        finally:
+            for f in pending:  # interrupted (or the consumer stopped): drop what is left
+                ray.cancel(f)
 
     return map_fn
 
@@ -205,11 +242,69 @@ def _run_task(comp: Compensator | None, fit_reason: str, task: BenchTask,
     return run_episode(comp, task, keep_trace=keep_trace)
 
 
+def _n_axes(env_id: str, trajectory: str | TrajectoryChoice) -> int:
+    ts = get_spec(env_id).axis.controller.ts
+    return reference_for(TrajectoryChoice.parse(trajectory), ts, np.random.default_rng(0)).n_axes
+
+
+def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Sequence[int],
+                   trajectories: Sequence[str] | None = None) -> list[BenchTask]:
+    """Check every id and seed, then list the episodes :func:`run_benchmark` scores.
+
+    Nothing is fitted or run: a typo fails here in a fraction of a second, not after the fits.
+
+    Raises
+    ------
+    BenchConfigError
+        Naming the parameter and the value: an unknown env, compensator or trajectory id (with
+        near matches), a trajectory whose number of axes an env does not drive, a seed that is
+        not an integer >= 0, or an empty list.
+    """
+    known_envs = registered_env_ids()
+    known_comps = compensator_registry.ids()
+    known_trajs = trajectory_registry.ids()
+    for name, values in (("env_ids", env_ids), ("comp_ids", comp_ids), ("seeds", seeds),
+                         ("trajectories", trajectories)):
+        if values is not None and len(values) == 0:
+            raise BenchConfigError(name, list(values), "expected at least one")
+    for name, values, known, kind in (("env_ids", env_ids, known_envs, "env"),
+                                      ("comp_ids", comp_ids, known_comps, "compensator"),
+                                      ("trajectories", trajectories or (), known_trajs,
+                                       "trajectory")):
+        for v in values:
+            if v not in known:
+                raise BenchConfigError(name, v, f"unknown {kind} id{did_you_mean(v, known)} "
+                                                f"(expected one of {', '.join(known)})")
+    for seed in seeds:
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise BenchConfigError("seeds", seed, "expected an integer >= 0")
+    tasks = []
+    for env_id in env_ids:
+        spec = get_spec(env_id)
+        trajs = list(trajectories) if trajectories else [t.id for t in spec.task.trajectories]
+        if trajectories:
+            d_env = _n_axes(env_id, spec.task.trajectories[0])
+            for traj in trajs:
+                d = _n_axes(env_id, traj)
+                if d != d_env:
+                    raise BenchConfigError("trajectories", traj,
+                                           f"a {d}-axis trajectory; {env_id} drives {d_env} "
+                                           f"axis{'' if d_env == 1 else 'es'}")
+        for comp_id in comp_ids:
+            for traj in trajs:
+                for seed in seeds:
+                    tasks.append(BenchTask(env_id, comp_id, traj, int(seed)))
+    return tasks
+
+
 def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
                   seeds: Sequence[int], trajectories: Sequence[str] | None = None,
                   backend: str = "joblib", n_jobs: int = 2, address: str | None = None,
                   fit_seed: int = 1000, progress: bool = True) -> Iterator[EpisodeRecord]:
-    """Fit, then run every (env, compensator, trajectory, seed); yields records.
+    """Fit, then run every (env, compensator, trajectory, seed); yields records as they finish.
+
+    Every argument is checked by :func:`plan_benchmark` before anything is fitted. Records come
+    in completion order, so a consumer stopped early (Ctrl-C) holds every finished run.
 
     Parameters
     ----------
@@ -218,35 +313,35 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
     comp_ids : sequence of str
         Registered compensator ids.
     seeds : sequence of int
-        Episode seeds (measurement noise and rehearsal seeds).
+        Episode seeds (measurement noise and rehearsal seeds), integers >= 0.
+    trajectories : sequence of str, optional
+        Registered trajectory ids replacing each env's own set.
     backend : {"joblib", "ray"}
         ``joblib`` fans out over local cores; ``ray`` runs the same tasks on a Ray cluster
         (``address`` of a running cluster, or a local instance when None).
     fit_seed : int
         Seed of every ``fit`` (training data differ from every evaluation episode).
+
+    Raises
+    ------
+    BenchConfigError
+        An unknown id or a bad seed (see :func:`plan_benchmark`), before any fitting.
     """
     from tqdm import tqdm
 
-    tasks = []
-    for env_id in env_ids:
-        spec = get_spec(env_id)
-        trajs = trajectories or [t.id for t in spec.task.trajectories]
-        for comp_id in comp_ids:
-            for traj in trajs:
-                for seed in seeds:
-                    tasks.append(BenchTask(env_id, comp_id, traj, int(seed)))
+    if backend not in ("joblib", "ray"):
+        raise ValueError(f"backend={backend!r}: expected 'joblib' or 'ray'")
+    tasks = plan_benchmark(env_ids, comp_ids, seeds, trajectories)
     n_fits = len({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
     bar = tqdm(total=len(tasks) + n_fits, desc="bench", unit="run", disable=not progress)
-    tick = bar.update
-    if backend == "joblib":
-        map_fn = _joblib_map(n_jobs, tick)
-    elif backend == "ray":
-        map_fn = _ray_map(address, tick)
-    else:
-        raise ValueError(f"backend={backend!r}: expected 'joblib' or 'ray'")
-    fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn)
-    first_seed = min(seeds)
-    args = [(*fitted[(t.compensator, get_spec(t.env).fit_on)], t, t.seed == first_seed)
-            for t in tasks]
-    yield from map_fn(_run_task, args)
-    bar.close()
+    try:
+        tick = bar.update
+        map_fn = _joblib_map(n_jobs, tick) if backend == "joblib" else _ray_map(address, tick)
+        fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn)
+        first_seed = min(seeds)
+        args = [(*fitted[(t.compensator, get_spec(t.env).fit_on)], t, t.seed == first_seed)
+                for t in tasks]
+        for _, rec in map_fn(_run_task, args):
+            yield rec
+    finally:
+        bar.close()

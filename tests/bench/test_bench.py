@@ -15,11 +15,14 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
+from fricbench.bench import runner
 from fricbench.bench.leaderboard import CSV_COLUMNS, write_leaderboards
 from fricbench.bench.metrics import reversal_indices, score_run
 from fricbench.bench.runner import (
+    BenchConfigError,
     BenchTask,
     EpisodeRecord,
+    plan_benchmark,
     run_benchmark,
     run_episode,
 )
@@ -234,6 +237,29 @@ def test_rewriting_a_committed_table_drops_only_its_timing_column(tmp_path: Path
             ln = "|".join(ln.split("|")[:-2]) + "|"
         expected.append(ln)
     assert (tmp_path / "PaperAxis-v0.md").read_text().splitlines() == expected
+
+
+def test_plan_checks_ids_and_seeds_naming_the_parameter() -> None:
+    assert len(plan_benchmark([PAPER], ["none"], [0, 1], ["s_curve"])) == 2
+    cases = [(["fricbench/PaperAxs-v0"], ["none"], [0], None, "env_ids", "did you mean"),
+             ([PAPER], ["kalmn"], [0], None, "comp_ids", "did you mean 'kalman'"),
+             ([PAPER], ["none"], [0], ["foo"], "trajectories", "expected one of"),
+             ([PAPER], ["none"], [0], ["circle"], "trajectories", "2-axis"),
+             ([PAPER], ["none"], [-3], None, "seeds", ">= 0"),
+             ([PAPER], [], [0], None, "comp_ids", "at least one")]
+    for envs, comps, seeds, trajs, param, match in cases:
+        with pytest.raises(BenchConfigError, match=match) as info:
+            plan_benchmark(envs, comps, seeds, trajs)
+        assert info.value.parameter == param
+
+
+def test_run_benchmark_checks_before_fitting(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_fit(*args: object) -> None:
+        raise AssertionError("fitted before checking the arguments")
+
+    monkeypatch.setattr(runner, "fit_compensators", no_fit)
+    with pytest.raises(BenchConfigError, match="trajectories='foo'"):
+        list(run_benchmark([PAPER], ["none"], [0], ["foo"], n_jobs=1, progress=False))
 
 
 def test_run_benchmark_small_joblib() -> None:
