@@ -14,6 +14,7 @@ import numpy as np
 from fricbench.axis import SimulationResult, simulate
 from fricbench.bench.metrics import score_run
 from fricbench.compensators import (
+    PRECOMP_PREFIX,
     Compensator,
     EpisodeContext,
     compensator_registry,
@@ -23,6 +24,7 @@ from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.specs import env_ids as registered_env_ids
 from fricbench.gym.specs import get_spec
 from fricbench.gym.task import TrajectoryChoice, reference_for
+from fricbench.predictors import predictor_registry
 from fricbench.registry import did_you_mean
 from fricbench.trajectories import Reference, trajectory_registry
 
@@ -261,7 +263,9 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
         not an integer >= 0, or an empty list.
     """
     known_envs = registered_env_ids()
-    known_comps = compensator_registry.ids()
+    # precomp:<predictor id> names a pre-compensation with any registered predictor
+    known_comps = compensator_registry.ids() + [PRECOMP_PREFIX + p
+                                                for p in predictor_registry.ids()]
     known_trajs = trajectory_registry.ids()
     for name, values in (("env_ids", env_ids), ("comp_ids", comp_ids), ("seeds", seeds),
                          ("trajectories", trajectories)):
