@@ -45,7 +45,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fricbench reproduce`` with parsed ``args``; return the exit status."""
-    from fricbench.predictors.reproduce import (
+    from fricbench.bench.reproduce import (
         ReproduceConfig,
         format_report,
         plot_figures,

@@ -7,15 +7,15 @@ import json
 
 import pytest
 
-import fricbench.predictors.reproduce as rp
-from fricbench.predictors import command
-from fricbench.predictors.reproduce import (
+import fricbench.bench.reproduce as rp
+from fricbench.bench.reproduce import (
     ReproduceConfig,
     format_report,
     plot_figures,
     reproduce,
     write_json,
 )
+from fricbench.predictors import command
 
 SMOKE = ReproduceConfig(
     predictors=("tf", "tf+lstm", "tf+stribeck"),

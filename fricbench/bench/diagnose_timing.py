@@ -1,6 +1,6 @@
 """Wall-clock time of the diagnosis on a long run (target: 40,000 samples in under 30 s).
 
-``python -m fricbench.sysid.diagnose.benchmark [--samples 40000] [--effort] [--seed 0]``
+``python -m fricbench.bench.diagnose_timing [--samples 40000] [--effort] [--seed 0]``
 simulates a run of the default axis (Stribeck friction, 0.1 um noise, 20 nm encoder) with a
 cogging ripple on a seeded random mixture of moves, reversals and sine blocks, diagnoses it
 and prints the number of samples, the seconds and the samples per second, with the load
@@ -91,7 +91,7 @@ def time_diagnose(samples: int = 40_000, *, effort: bool = False, seed: int = 0,
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command line: print samples, seconds and samples/s of one timed diagnosis."""
-    ap = argparse.ArgumentParser(prog="python -m fricbench.sysid.diagnose.benchmark",
+    ap = argparse.ArgumentParser(prog="python -m fricbench.bench.diagnose_timing",
                                  description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=40_000, help="run length (default 40000)")
     ap.add_argument("--effort", action="store_true", help="give diagnose the effort column")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from fricbench.sysid.diagnose.benchmark import benchmark_run, main
+from fricbench.bench.diagnose_timing import benchmark_run, main
 
 
 def test_benchmark_run_has_the_requested_length() -> None:
