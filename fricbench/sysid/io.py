@@ -7,22 +7,33 @@ EMPS files of ``data/emps`` use other column names, chosen with the keyword argu
 :func:`load_run`.
 
 Every problem with the file raises :class:`DataError` with a message that says what is wrong
-and where (row and column); problems that still allow an analysis become warnings on the
-returned :class:`RunData`. The file is only ever read.
+and where (line and column); problems that still allow an analysis become warnings on the
+returned :class:`RunData`. The file is only ever read, line by line and within fixed bounds
+(:data:`MAX_FILE_BYTES`, :data:`MAX_ROWS`, :data:`MAX_LINE_BYTES`), so a huge or endless input
+is refused early; a pipe (FIFO, ``/dev/stdin``) is read the same way as a file. A quoted cell
+must end on its own line.
+
+Times and positions must be on the scale of a servo axis in s and m (:data:`SAMPLE_TIME_RANGE`,
+:data:`POSITION_LIMIT`, :data:`MIN_STROKE`) and the effort within :data:`EFFORT_RANGE`; anything
+else is refused before a fit, with the column, the value and the expected range.
 """
 
 from __future__ import annotations
 
 import csv
-import io
 import math
 import os
+import stat
+from array import array
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from typing import BinaryIO
 
 import numpy as np
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
-           "TIME_JITTER_TOLERANCE"]
+           "TIME_JITTER_TOLERANCE", "MAX_FILE_BYTES", "MAX_ROWS", "MAX_LINE_BYTES",
+           "SAMPLE_TIME_RANGE", "POSITION_LIMIT", "MIN_STROKE", "EFFORT_RANGE"]
 
 MIN_SAMPLES = 200
 """Fewest samples a run may have (0.2 s at 1 kHz)."""
@@ -30,8 +41,32 @@ MIN_SAMPLES = 200
 TIME_JITTER_TOLERANCE = 0.01
 """Largest allowed relative deviation of a time step from the median step."""
 
+MAX_FILE_BYTES = 256 * 2**20
+"""Largest run file read, bytes (256 MiB); a larger file is refused before it is opened, a pipe
+once that much has been read."""
+
+MAX_ROWS = 1_000_000
+"""Most data rows of a run file (1000 s at 1 kHz); reading stops at the next one."""
+
+MAX_LINE_BYTES = 100_000
+"""Longest line of a run file, bytes; a longer one is refused without reading it whole."""
+
+SAMPLE_TIME_RANGE = (1e-6, 0.1)
+"""Sample times of a servo-axis log, s: 1 MHz to 10 Hz (time in ms or us falls outside)."""
+
+POSITION_LIMIT = 1e3
+"""Largest position magnitude, m. No servo axis is longer; files in millimetres up to 1 m pass
+(with a warning that they look like millimetres), larger numbers are refused."""
+
+MIN_STROKE = 1e-8
+"""Smallest range of motion, m: ten steps of a 1 nm encoder, the finest resolution in use."""
+
+EFFORT_RANGE = (1e-9, 1e12)
+"""Range of the largest effort magnitude in any unit (N, A, V, % or DAC counts); an effort
+outside it, or constant, is degenerate: refused when required, else dropped with a warning."""
+
 _MM_SUSPECT_RANGE = 2.0  # m: a feed-axis stroke longer than this is more likely in mm
-_MAX_BYTES_SNIFF = 8192
+_CONSTANT_REL = 1e-9  # a column varying by less than this share of its magnitude is constant
 
 
 class DataError(ValueError):
@@ -57,9 +92,11 @@ class RunData:
     source : str
         Where the data came from (file path or a label).
     columns : dict
-        The column names used for ``t``, ``x_ref``, ``x`` and ``u``.
+        The column names used for ``t``, ``x_ref``, ``x`` and, when the run has an effort,
+        ``u``.
     warnings : tuple of str
-        Problems that do not prevent an analysis (positions that look like mm, no reversals).
+        Problems that do not prevent an analysis (positions that look like mm, no reversals,
+        a degenerate effort that was dropped).
     n_reversals : int
         Velocity reversals of the reference.
     """
@@ -118,9 +155,28 @@ def _count_reversals(x: np.ndarray, ts: float, tol: float) -> int:
     return count
 
 
+def _effort_problem(u: np.ndarray, name: str | None, where: Callable[[int], str]) -> str | None:
+    """Why the effort column ``u`` is degenerate, or None when it is usable."""
+    lo, hi = EFFORT_RANGE
+    i = int(np.argmax(np.abs(u)))
+    peak = abs(float(u[i]))
+    if peak > hi:
+        return (f"column {name!r}: effort {u[i]:.6g} at {where(i)} is beyond +-{hi:g}, more "
+                "than any effort unit (N, A, V, % or DAC counts) reaches")
+    # ptp of values below 1e12 cannot overflow
+    if float(np.ptp(u)) <= _CONSTANT_REL * peak:
+        return (f"column {name!r} is constant ({u[0]:.6g}): it carries no information on the "
+                "forces")
+    if peak < lo:
+        return (f"column {name!r}: the effort never exceeds {peak:.3g} in magnitude, below the "
+                f"{lo:g} any effort unit resolves")
+    return None
+
+
 def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarray | None = None,
                     *, source: str = "<arrays>", names: dict[str, str | None] | None = None,
-                    line_numbers: np.ndarray | None = None) -> RunData:
+                    line_numbers: np.ndarray | None = None,
+                    effort_required: bool = True) -> RunData:
     """Check arrays of one run and wrap them in a :class:`RunData`.
 
     Parameters
@@ -135,6 +191,9 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         Column names for messages (keys ``t``, ``x_ref``, ``x``, ``u``).
     line_numbers : ndarray of int, optional
         File line of each sample (for messages); samples are numbered from 0 without it.
+    effort_required : bool
+        A degenerate effort (constant, or its magnitude outside :data:`EFFORT_RANGE`) raises;
+        when False it is dropped with a warning and the run has no effort.
 
     Returns
     -------
@@ -143,9 +202,16 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     Raises
     ------
     DataError
-        NaN or inf, time not increasing or irregular, too short, or no motion.
+        NaN or inf, time not increasing or irregular, too short, no motion, values off the
+        scale of a servo axis (:data:`SAMPLE_TIME_RANGE`, :data:`POSITION_LIMIT`,
+        :data:`MIN_STROKE`), the measured position equal to the reference, a degenerate
+        effort that is required.
     """
-    names = dict(names or {"t": "t", "x_ref": "x_ref", "x": "x", "u": "u"})
+    if names is None:
+        names = {"t": "t", "x_ref": "x_ref", "x": "x"}
+        if u is not None:
+            names["u"] = "u"
+    names = dict(names)
 
     def where(i: int) -> str:
         return f"line {int(line_numbers[i])}" if line_numbers is not None else f"sample {i}"
@@ -168,7 +234,7 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         if bad.size:
             i = int(bad[0])
             raise DataError(f"{source}: {where(i)}, column {names.get(key)!r}: "
-                            f"value {arr[i]!r} is not finite ({bad.size} such rows); "
+                            f"value {float(arr[i])!r} is not finite ({bad.size} such rows); "
                             "remove or fill them")
         clean[key] = arr
     n = int(length or 0)
@@ -180,8 +246,14 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     if np.any(dt <= 0.0):
         i = int(np.flatnonzero(dt <= 0.0)[0])
         raise DataError(f"{source}: column {names['t']!r} does not increase at {where(i + 1)} "
-                        f"({tt[i]!r} then {tt[i + 1]!r}); expected strictly increasing time")
+                        f"({float(tt[i])!r} then {float(tt[i + 1])!r}); expected strictly "
+                        "increasing time")
     ts = float(np.median(dt))
+    ts_lo, ts_hi = SAMPLE_TIME_RANGE
+    if not ts_lo <= ts <= ts_hi:
+        raise DataError(f"{source}: column {names['t']!r}: sample time {ts:.6g} s (the median "
+                        f"step) is outside [{ts_lo:g}, {ts_hi:g}] s, the sample times of a "
+                        "servo-axis log (1 MHz to 10 Hz); is the column in seconds?")
     dev = np.abs(dt - ts) / ts
     if np.max(dev) > TIME_JITTER_TOLERANCE:
         i = int(np.argmax(dev))
@@ -192,17 +264,52 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
             f"{100 * TIME_JITTER_TOLERANCE:g} %); resample the run to a uniform step first"
         )
     xr, xm = clean["x_ref"], clean["x"]
+    for key, arr in (("x_ref", xr), ("x", xm)):
+        i = int(np.argmax(np.abs(arr)))
+        if abs(arr[i]) > POSITION_LIMIT:
+            raise DataError(f"{source}: {where(i)}, column {names[key]!r}: position {arr[i]:.6g} "
+                            f"is outside +-{POSITION_LIMIT:g} m, the positions a servo axis can "
+                            "have in metres; is the column in metres?")
     warnings: list[str] = []
+    # positions within +-POSITION_LIMIT: spans and differences cannot overflow
     span_ref = float(np.ptp(xr))
     span_x = float(np.ptp(xm))
     if span_ref <= 0.0:
         raise DataError(f"{source}: column {names['x_ref']!r} is constant: a run without motion; "
                         "no analysis is possible (neither the loop dynamics nor any effect "
                         "can be identified)")
+    if span_ref < MIN_STROKE:
+        raise DataError(f"{source}: column {names['x_ref']!r} moves by {span_ref:.3g} m, less "
+                        f"than the {MIN_STROKE:g} m a diagnosis needs (ten steps of a 1 nm "
+                        "encoder): no resolvable motion; is the column in metres?")
     if span_x <= 0.0:
         raise DataError(f"{source}: column {names['x']!r} is constant while the reference moves "
                         f"by {span_ref:.6g}: the measured position did not follow; check the "
                         "column choice")
+    if span_x < MIN_STROKE:
+        raise DataError(f"{source}: column {names['x']!r} moves by {span_x:.3g} m while the "
+                        f"reference moves by {span_ref:.6g} m: less than the {MIN_STROKE:g} m "
+                        "a diagnosis needs (ten steps of a 1 nm encoder); check the column "
+                        "choice and unit")
+    peak = max(float(np.max(np.abs(xr))), float(np.max(np.abs(xm))))
+    gap = float(np.max(np.abs(xr - xm)))
+    if gap <= _CONSTANT_REL * peak:
+        raise DataError(f"{source}: the reference {names['x_ref']!r} and the measured position "
+                        f"{names['x']!r} are equal at every sample (largest difference "
+                        f"{gap:.3g} m): there is no tracking error to explain; the reference "
+                        "is the commanded position (--reference), the measurement the "
+                        "sensor's (--position)")
+    uu = clean.get("u")
+    if uu is not None:
+        problem = _effort_problem(uu, names.get("u"), where)
+        if problem is not None and effort_required:
+            raise DataError(f"{source}: {problem}; choose another column (--effort) or "
+                            "diagnose from the positions only (--no-effort)")
+        if problem is not None:
+            warnings.append(f"the effort is not used: {problem}; the diagnosis uses the "
+                            "positions only")
+            uu = None
+            names.pop("u", None)
     if max(span_ref, span_x, float(np.max(np.abs(xr)))) > _MM_SUSPECT_RANGE:
         warnings.append(
             f"positions span {span_ref:.6g} (reference) and {span_x:.6g} (measured): these look "
@@ -223,31 +330,93 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
             "backlash cannot be separated from a constant force; coulomb_friction, "
             "stribeck_friction, asymmetric_friction and backlash are not tried"
         )
-    return RunData(t=tt, x_ref=xr, x=xm, u=clean.get("u"), ts=ts, source=source,
+    return RunData(t=tt, x_ref=xr, x=xm, u=uu, ts=ts, source=source,
                    columns=names, warnings=tuple(warnings), n_reversals=n_rev)
 
 
-def _sniff(path: str) -> str:
-    """Return the text of ``path``; raise DataError for a missing, empty or binary file."""
-    if not os.path.exists(path):
-        raise DataError(f"{path}: no such file")
-    if os.path.isdir(path):
-        raise DataError(f"{path}: is a directory, expected a CSV file")
-    if os.path.getsize(path) == 0:
-        raise DataError(f"{path}: the file is empty")
-    with open(path, "rb") as fh:
-        raw = fh.read()
-    head = raw[:_MAX_BYTES_SNIFF]
-    if b"\x00" in head:
-        raise DataError(f"{path}: looks like a binary file (NUL bytes), expected a text CSV")
+# -- reading ------------------------------------------------------------------------------------
+def _lines(fh: BinaryIO, path: str) -> Iterator[tuple[int, str, bool]]:
+    """Yield ``(line number, text without line end, complete)`` of a byte stream.
+
+    At most :data:`MAX_LINE_BYTES` of a line are read (``complete`` is False when it is
+    longer) and :data:`MAX_FILE_BYTES` in all; NUL bytes and text that is not UTF-8 raise
+    :class:`DataError` naming the line.
+    """
+    total = 0
+    line_no = 0
+    while True:
+        raw = fh.readline(MAX_LINE_BYTES + 1)
+        if not raw:
+            return
+        line_no += 1
+        total += len(raw)
+        if total > MAX_FILE_BYTES:
+            raise DataError(f"{path}: line {line_no}: more than MAX_FILE_BYTES = "
+                            f"{MAX_FILE_BYTES} bytes read ({MAX_FILE_BYTES // 2**20} MiB, the "
+                            "largest run file read); cut the run into shorter files")
+        body = raw.rstrip(b"\r\n")
+        complete = len(body) <= MAX_LINE_BYTES
+        if line_no == 1 and body.startswith(b"\xef\xbb\xbf"):
+            body = body[3:]
+        nul = body.find(b"\x00")
+        if nul >= 0:
+            raise DataError(f"{path}: line {line_no}, byte {nul + 1}: NUL bytes: looks like a "
+                            "binary file, expected a text CSV")
+        if not complete:  # refused by the caller; decoded only to name the column
+            yield line_no, body.decode("utf-8", errors="replace"), False
+            return
+        try:
+            text = body.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise DataError(f"{path}: line {line_no}, byte {exc.start + 1}: not UTF-8 text: "
+                            "expected a text CSV; is it a binary (.mat, .xlsx) file?") from None
+        yield line_no, text, True
+
+
+def _field_at(text: str, delimiter: str, pos: int | None = None) -> int:
+    """Index of the field of ``text`` holding character ``pos`` (default: the field an
+    unterminated quote opens, else the last one), quotes respected."""
+    field_no, quoted, opened = 0, False, 0
+    for k, ch in enumerate(text):
+        if pos is not None and k >= pos:
+            return field_no
+        if ch == '"':
+            quoted = not quoted
+            if quoted:
+                opened = field_no
+        elif ch == delimiter and not quoted:
+            field_no += 1
+    return opened if quoted and pos is None else field_no
+
+
+def _split(text: str, delimiter: str) -> list[str]:
+    """Fields of one line; raise csv.Error for bad quoting (quotes must close on the line)."""
+    if '"' not in text:
+        return text.split(delimiter)
+    return next(csv.reader((text,), delimiter=delimiter, strict=True))
+
+
+def _open(path: str) -> BinaryIO:
+    """Open ``path`` for reading bytes after the checks that need no reading."""
     try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DataError(f"{path}: not UTF-8 text (byte {exc.start}): expected a text CSV; "
-                        "is it a binary (.mat, .xlsx) file?") from None
-    if not text.strip():
-        raise DataError(f"{path}: the file holds only whitespace")
-    return text
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read: {exc.strerror}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise DataError(f"{path}: is a directory, expected a CSV file")
+    if stat.S_ISREG(st.st_mode):
+        if st.st_size == 0:
+            raise DataError(f"{path}: the file is empty")
+        if st.st_size > MAX_FILE_BYTES:
+            raise DataError(f"{path}: {st.st_size} bytes, more than MAX_FILE_BYTES = "
+                            f"{MAX_FILE_BYTES} ({MAX_FILE_BYTES // 2**20} MiB, the largest run "
+                            "file read); cut the run into shorter files")
+    try:
+        return open(path, "rb")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read: {exc.strerror}") from None
 
 
 def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = "x_ref",
@@ -255,18 +424,24 @@ def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = 
              effort_required: bool = False) -> RunData:
     """Read a run from a CSV file and validate it.
 
+    The file (or a pipe) is read line by line: at most :data:`MAX_FILE_BYTES` bytes,
+    :data:`MAX_ROWS` data rows and :data:`MAX_LINE_BYTES` bytes per line; a regular file larger
+    than :data:`MAX_FILE_BYTES` is refused before it is opened.
+
     Parameters
     ----------
     path : str or PathLike
         CSV file with a header row (comma, semicolon or tab separated; ``#`` comment lines
-        before the header are skipped).
+        before the header are skipped). A quoted cell must end on its line.
     time, reference, position : str
         Column names of time (s), reference position (m) and measured position (m).
     effort : str or None
         Column name of the effort. When the column is missing the run has no effort, unless
         ``effort_required`` (then it is an error); None never reads an effort.
     effort_required : bool
-        Raise when the ``effort`` column is missing (set when the user named it).
+        Raise when the ``effort`` column is missing or degenerate (set when the user named it);
+        otherwise a degenerate effort (constant, or off the scale of :data:`EFFORT_RANGE`) is
+        dropped with a warning.
 
     Returns
     -------
@@ -275,25 +450,48 @@ def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = 
     Raises
     ------
     DataError
-        Missing, empty or binary file, missing columns (the message lists those found),
-        non-numeric cells (row and column), NaN or inf, time not increasing or irregular
-        beyond 1 %, too few samples, no motion.
+        Missing, empty, binary or too large file, missing columns (the message lists those
+        found), bad quoting, overlong lines, non-numeric cells (line and column), NaN or inf,
+        time not increasing or irregular beyond 1 %, too few samples, no motion, values off
+        the scale of a servo axis (see :func:`validate_arrays`).
     """
     path = os.fspath(path)
-    text = _sniff(path)
-    lines = text.splitlines()
-    start = 0
-    while start < len(lines) and (not lines[start].strip() or lines[start].lstrip()
-                                  .startswith("#")):
-        start += 1
-    if start >= len(lines):
+    with _open(path) as fh:
+        return _parse(_lines(fh, path), path, time=time, reference=reference,
+                      position=position, effort=effort, effort_required=effort_required)
+
+
+def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: str, reference: str,
+           position: str, effort: str | None, effort_required: bool) -> RunData:
+    """Header, columns and numbers of the lines of a run file (see :func:`load_run`)."""
+    seen_text = seen_line = False
+    for line_no, text, complete in lines:
+        seen_line = True
+        if not complete:
+            raise DataError(f"{path}: line {line_no} is longer than MAX_LINE_BYTES = "
+                            f"{MAX_LINE_BYTES} bytes before the header; expected a CSV header")
+        if not text.strip():
+            continue
+        seen_text = True
+        if text.lstrip().startswith("#"):
+            continue
+        break
+    else:
+        if not seen_line:
+            raise DataError(f"{path}: the file is empty")
+        if not seen_text:
+            raise DataError(f"{path}: the file holds only whitespace")
         raise DataError(f"{path}: no header row found (only comments)")
-    header_line = lines[start]
+    header_no, header_line = line_no, text
     delimiter = max((",", ";", "\t"), key=header_line.count)
     if header_line.count(delimiter) == 0:
         delimiter = ","
-    reader = csv.reader(io.StringIO("\n".join(lines[start:])), delimiter=delimiter)
-    header = [h.strip() for h in next(reader)]
+    try:
+        header = [h.strip() for h in _split(header_line, delimiter)]
+    except csv.Error as exc:
+        j = _field_at(header_line, delimiter)
+        raise DataError(f"{path}: line {header_no} (the header), field {j + 1}: bad quoting "
+                        f"({exc}); a quoted name must close on its line") from None
     wanted = {"t": time, "x_ref": reference, "x": position}
     missing = [name for name in wanted.values() if name not in header]
     if effort is not None and effort_required and effort not in header:
@@ -309,33 +507,51 @@ def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = 
         wanted["u"] = effort
     idx = {key: header.index(name) for key, name in wanted.items()}
     ncol = len(header)
-    data: dict[str, list[float]] = {key: [] for key in wanted}
-    line_numbers: list[int] = []
-    first_row = start + 2  # 1-based file line of the first data row
-    for offset, row in enumerate(reader):
-        line_no = first_row + offset
-        if not row or all(not c.strip() for c in row):
+
+    def column(j: int) -> str:
+        return f"column {header[j]!r}" if j < ncol else f"field {j + 1} (beyond the header)"
+
+    data = {key: array("d") for key in wanted}
+    line_numbers = array("q")
+    for line_no, text, complete in lines:
+        if not complete:
+            j = _field_at(text, delimiter, MAX_LINE_BYTES)
+            raise DataError(f"{path}: line {line_no}, {column(j)}: the line is longer than "
+                            f"MAX_LINE_BYTES = {MAX_LINE_BYTES} bytes; expected short numeric "
+                            "cells (an unterminated quote or a corrupt line?)")
+        if not text.strip() or text.lstrip().startswith("#"):
             continue
-        if row[0].lstrip().startswith("#"):
-            continue
+        try:
+            row = _split(text, delimiter)
+        except csv.Error as exc:
+            j = _field_at(text, delimiter)
+            raise DataError(f"{path}: line {line_no}, {column(j)}: bad quoting ({exc}); a "
+                            "quoted cell must close on its line") from None
         if len(row) != ncol:
+            detail = (f"{column(ncol)} holds {row[ncol].strip()[:40]!r}" if len(row) > ncol
+                      else f"{column(len(row))} and after are missing")
             raise DataError(f"{path}: line {line_no} has {len(row)} fields, the header has "
-                            f"{ncol}")
+                            f"{ncol}: {detail}")
+        if len(line_numbers) >= MAX_ROWS:
+            raise DataError(f"{path}: line {line_no}: more than MAX_ROWS = {MAX_ROWS} data "
+                            "rows (the most samples a run may have); cut the run into shorter "
+                            "files")
         for key, j in idx.items():
             cell = row[j].strip()
             try:
                 value = float(cell)
             except ValueError:
-                raise DataError(f"{path}: line {line_no}, column {header[j]!r}: {cell!r} is not "
-                                "a number") from None
+                raise DataError(f"{path}: line {line_no}, column {header[j]!r}: {cell[:40]!r} "
+                                "is not a number") from None
             if not math.isfinite(value):
                 raise DataError(f"{path}: line {line_no}, column {header[j]!r}: {cell!r} is not "
                                 "finite (NaN or inf); remove or fill such rows")
             data[key].append(value)
         line_numbers.append(line_no)
-    if not data["t"]:
+    if not line_numbers:
         raise DataError(f"{path}: the header has no data rows below it")
-    names = {k: wanted.get(k) for k in ("t", "x_ref", "x", "u")}
-    return validate_arrays(np.array(data["t"]), np.array(data["x_ref"]), np.array(data["x"]),
-                           np.array(data["u"]) if "u" in data else None, source=path,
-                           names=names, line_numbers=np.array(line_numbers))
+    names: dict[str, str | None] = dict(wanted)
+    return validate_arrays(np.asarray(data["t"]), np.asarray(data["x_ref"]),
+                           np.asarray(data["x"]), np.asarray(data["u"]) if "u" in data else None,
+                           source=path, names=names, line_numbers=np.asarray(line_numbers),
+                           effort_required=effort_required)

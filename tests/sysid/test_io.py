@@ -98,7 +98,7 @@ def test_small_jitter_is_accepted():
     n = 400
     t = np.arange(n) * 1e-3 + np.random.default_rng(0).uniform(-3e-8, 3e-8, n)
     xr = 0.01 * np.sin(2 * np.pi * t)
-    run = validate_arrays(t, xr, xr)
+    run = validate_arrays(t, xr, xr - 1e-7)
     assert run.ts == pytest.approx(1e-3, rel=1e-4)
 
 
@@ -178,3 +178,39 @@ def test_emps_files_load_with_their_names():
                    position="q_m", effort="force_N", effort_required=True)
     assert run.n_samples == 24841 and run.n_reversals == 7 and not run.warnings
     assert run.ts == pytest.approx(1e-3, rel=1e-4)
+
+
+def _effort_run(u: np.ndarray, **kwargs):
+    t = np.arange(400) * 1e-3
+    xr = 0.01 * np.sin(2 * np.pi * t)
+    return validate_arrays(t, xr, xr - 1e-6, u, **kwargs)
+
+
+@pytest.mark.parametrize(("u", "problem"), [
+    (np.full(400, 2.5), "is constant"),
+    (np.linspace(-1.0, 1.0, 400) * 1e300, "is beyond"),
+    (np.linspace(-1.0, 1.0, 400) * 1e-300, "never exceeds"),
+])
+def test_degenerate_effort_raises_when_required_else_is_dropped(u, problem):
+    with pytest.raises(DataError, match=problem):
+        _effort_run(u)
+    run = _effort_run(u, effort_required=False)
+    assert run.u is None and "u" not in run.columns
+    assert any(w.startswith("the effort is not used") and problem in w for w in run.warnings)
+
+
+@pytest.mark.parametrize(("scale", "message"), [
+    (1e6, r"position .* is outside \+-1000 m"),
+    (1e-7, r"moves by .* less than the 1e-08 m"),
+])
+def test_positions_off_the_scale_of_an_axis(tmp_path, scale, message):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows(scale=scale))
+    with pytest.raises(DataError, match=message):
+        load_run(path)
+
+
+def test_sample_time_off_the_scale_of_an_axis():
+    t = np.arange(400) * 1.0
+    xr = 0.01 * np.sin(2 * np.pi * t / 100)
+    with pytest.raises(DataError, match=r"sample time 1 s .* outside \[1e-06, 0.1\] s"):
+        validate_arrays(t, xr, xr - 1e-6)
