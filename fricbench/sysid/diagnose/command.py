@@ -3,17 +3,25 @@
 ``fricbench diagnose DATA.csv [--validate OTHER.csv] [--json OUT.json] [--report DIR]``
 
 Wire it into a CLI with :func:`add_parser` and :func:`run`; :func:`main` runs it alone
-(``python -m fricbench.sysid.diagnose.command DATA.csv``). Bad input gives a one-line error
-and exit status 2, never a traceback.
+(``python -m fricbench.sysid.diagnose.command DATA.csv``). Bad input (file or option) gives a
+one-line error and exit status 2, a diagnosis that fails or finds no finite model exit status
+1, never a traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from fricbench.sysid.io import RunData
 
 __all__ = ["add_parser", "run", "main", "EXIT_OK", "EXIT_FAILED", "EXIT_BAD_INPUT"]
 
@@ -70,6 +78,48 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return parser
 
 
+def _check_options(args: argparse.Namespace, run: RunData | None = None) -> str | None:
+    """The first problem with the numeric options, or None; with ``run``, the checks that
+    need the data (the Nyquist frequency, the number of samples)."""
+    if run is None:
+        if args.max_effects < 0:
+            return f"--max-effects {args.max_effects}: expected an integer >= 0"
+        if args.decimate is not None and args.decimate < 1:
+            return f"--decimate {args.decimate}: expected an integer >= 1 (1: no decimation)"
+        if args.filter_hz is not None and not (math.isfinite(args.filter_hz)
+                                               and args.filter_hz > 0.0):
+            return f"--filter-hz {args.filter_hz:g}: expected a positive cut-off frequency, Hz"
+        return None
+    nyquist = 0.5 / run.ts
+    if args.filter_hz is not None and args.filter_hz >= nyquist:
+        return (f"--filter-hz {args.filter_hz:g}: expected a cut-off below {nyquist:g} Hz, the "
+                f"Nyquist frequency of {run.source} (sampled every {run.ts:g} s)")
+    most = run.n_samples // 100
+    if args.decimate is not None and args.decimate > most:
+        return (f"--decimate {args.decimate}: expected an integer from 1 to {most} for "
+                f"{run.source} (at least 100 decimated samples of its {run.n_samples})")
+    return None
+
+
+# candidate details hold NaN on purpose for candidates that were ranked but not fitted
+_UNSCORED = frozenset({"candidates", "rejected_at_last_step"})
+
+
+def _non_finite(obj: object, path: str = "") -> list[str]:
+    """Key paths of the NaN and inf results in a report, as ``key.sub = value`` (the candidate
+    lists, where NaN marks a candidate not fitted, are not results)."""
+    if isinstance(obj, dict):
+        return [p for k, v in obj.items() if k not in _UNSCORED
+                for p in _non_finite(v, f"{path}.{k}" if path else k)]
+    if isinstance(obj, (list, tuple)):
+        return [p for i, v in enumerate(obj) for p in _non_finite(v, f"{path}[{i}]")]
+    if isinstance(obj, (float, np.floating)) and not math.isfinite(obj):
+        return [f"{path} = {float(obj)}"]
+    if isinstance(obj, np.ndarray) and obj.dtype.kind == "f" and not np.all(np.isfinite(obj)):
+        return [f"{path} = {obj[~np.isfinite(obj)][0]}"]
+    return []
+
+
 def _fmt(value: float | None, scale: float = 1.0, digits: int = 3) -> str:
     return "-" if value is None else f"{value * scale:.{digits}g}"
 
@@ -86,8 +136,9 @@ def run(args: argparse.Namespace) -> int:
                 os.path.dirname(os.path.abspath(out))):
             print(f"error: --{name} {out}: the directory does not exist", file=sys.stderr)
             return EXIT_BAD_INPUT
-    if args.max_effects < 0:
-        print(f"error: --max-effects {args.max_effects}: expected >= 0", file=sys.stderr)
+    problem = _check_options(args)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     effort = None if args.no_effort else (args.effort or "u")
     required = args.effort is not None and not args.no_effort
@@ -99,6 +150,10 @@ def run(args: argparse.Namespace) -> int:
     except DataError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    problem = _check_options(args, run_data)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     for w in run_data.warnings + (other.warnings if other is not None else ()):
         print(f"warning: {w}", file=sys.stderr)
     try:
@@ -109,10 +164,16 @@ def run(args: argparse.Namespace) -> int:
                           settings=SearchSettings(max_steps=args.max_effects),
                           compare_tf=args.tf, cutoff_hz=args.filter_hz, decim=args.decimate,
                           log=log)
-    except (ValueError, FloatingPointError) as exc:
-        print(f"error: the diagnosis failed: {exc}", file=sys.stderr)
+    except (ValueError, ArithmeticError) as exc:
+        print(f"error: the diagnosis failed: {str(exc) or type(exc).__name__}", file=sys.stderr)
         return EXIT_FAILED
     report = result.to_dict()
+    bad = _non_finite(report)
+    if bad:
+        more = f" and {len(bad) - 1} more" if len(bad) > 1 else ""
+        print(f"error: the diagnosis gave non-finite results ({bad[0]}{more}): no valid model "
+              "of this run was found; no report written", file=sys.stderr)
+        return EXIT_FAILED
     try:
         if args.json:
             from fricbench.sysid.diagnose.report import write_json

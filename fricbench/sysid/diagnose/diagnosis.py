@@ -251,14 +251,21 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         Also fit the black-box transfer function of ``fricbench.sysid.tf_fit`` and report its
         position error (slow on long runs).
     cutoff_hz, decim : optional
-        Derivative filter and decimation of the inverse dynamics (defaults: a tenth of the
-        sampling rate, 10).
+        Derivative filter (Hz, below the Nyquist frequency) and decimation (an integer >= 1)
+        of the inverse dynamics (defaults: a tenth of the sampling rate, 10).
     log : callable, optional
         Receives progress lines.
 
     Returns
     -------
     DiagnosisResult
+
+    Raises
+    ------
+    TypeError
+        ``run`` or ``validate`` is not a RunData.
+    ValueError
+        ``decim`` or ``cutoff_hz`` out of range, or the two runs sampled at different times.
     """
     if not isinstance(run, RunData):
         raise TypeError(f"run={run!r}: expected a RunData (fricbench.sysid.io.load_run)")
@@ -267,6 +274,9 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     if validate is not None and abs(validate.ts - run.ts) > 0.01 * run.ts:
         raise ValueError(f"validate: sampled at ts={validate.ts:g} s but the run at "
                          f"ts={run.ts:g} s: expected the same sample time")
+    if decim is not None and (isinstance(decim, bool) or not isinstance(decim, (int, np.integer))
+                              or decim < 1):
+        raise ValueError(f"decim={decim!r}: expected an integer >= 1 (1: no decimation) or None")
     log = log or (lambda _s: None)
     t0 = time.perf_counter()
     prep = prepare(run, cutoff_hz=cutoff_hz, decim=decim)
