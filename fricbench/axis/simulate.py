@@ -9,6 +9,7 @@ import numpy as np
 
 from fricbench.axis.batch import AxisBatch
 from fricbench.axis.params import Axis
+from fricbench.run import Run
 from fricbench.trajectories.base import Reference
 
 __all__ = ["SimulationResult", "simulate", "simulate_many"]
@@ -65,6 +66,31 @@ class SimulationResult:
     def rms_error(self) -> float:
         """RMS actual tracking error, m."""
         return float(np.sqrt(np.mean(self.error**2)))
+
+    def as_run(self, axis: int | None = None) -> Run:
+        """The run as a log would hold it: time, reference, measured position, motor force.
+
+        Parameters
+        ----------
+        axis : int, optional
+            Which coordinate of a multi-axis result (required there; a run is one axis).
+
+        Returns
+        -------
+        Run
+        """
+        x_ref, x, u = (np.atleast_2d(a) for a in (self.x_ref, self.x, self.u))
+        d = x_ref.shape[0]
+        if axis is None:
+            if d != 1:
+                raise ValueError(f"axis=None: this result has {d} axes; expected an index "
+                                 f"0..{d - 1}")
+            axis = 0
+        if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)) or not 0 <= axis < d:
+            raise ValueError(f"axis={axis!r}: expected an integer in 0..{d - 1}")
+        ts = self.axes[0].controller.ts if self.axes else 0.0
+        return Run(self.t, x_ref[axis], x[axis], u[axis], ts=ts, source="fricbench.simulate",
+                   columns={"t": "t", "x_ref": "x_ref", "x": "x", "u": "u"})
 
 
 def _as_rows(arr: np.ndarray | None, d: int, k: int, name: str) -> np.ndarray | None:

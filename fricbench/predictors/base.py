@@ -33,7 +33,6 @@ import os
 import zipfile
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
@@ -51,6 +50,7 @@ from fricbench._safe_load import (
 )
 from fricbench.exceptions import NotFittedError
 from fricbench.registry import RegistryEntry
+from fricbench.run import Run
 from fricbench.sysid.friction_error import find_events
 from fricbench.trajectories.base import Reference
 
@@ -65,30 +65,6 @@ P = TypeVar("P", bound="Predictor")
 
 class PredictorFileError(ValueError):
     """A saved predictor that cannot be loaded; the message names the file and the problem."""
-
-
-@dataclass(frozen=True)
-class Run:
-    """One logged run: what a predictor is fitted on.
-
-    Attributes
-    ----------
-    t : ndarray, shape (K,)
-        Time, s, uniformly sampled.
-    x_ref : ndarray, shape (K,)
-        Reference position, m.
-    x : ndarray, shape (K,)
-        Measured position, m.
-    """
-
-    t: np.ndarray
-    x_ref: np.ndarray
-    x: np.ndarray
-
-    @property
-    def ts(self) -> float:
-        """Sample time, s."""
-        return float(self.t[1] - self.t[0])
 
 
 def _run_arrays(obj: Any, i: int) -> Run:

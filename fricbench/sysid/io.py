@@ -26,10 +26,11 @@ import os
 import stat
 from array import array
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from typing import BinaryIO
 
 import numpy as np
+
+from fricbench.run import Run
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
            "TIME_JITTER_TOLERANCE", "MAX_FILE_BYTES", "MAX_ROWS", "MAX_LINE_BYTES",
@@ -73,58 +74,8 @@ class DataError(ValueError):
     """The run file cannot be analysed; the message says why and where."""
 
 
-@dataclass(frozen=True)
-class RunData:
-    """One validated run: uniformly sampled reference, measured position and optional effort.
-
-    Attributes
-    ----------
-    t : ndarray, shape (K,)
-        Sample times as read, s.
-    x_ref : ndarray, shape (K,)
-        Reference position, m.
-    x : ndarray, shape (K,)
-        Measured position, m.
-    u : ndarray or None, shape (K,)
-        Actuator effort (any consistent unit), or None when the file has none.
-    ts : float
-        Sample time, s (median time step).
-    source : str
-        Where the data came from (file path or a label).
-    columns : dict
-        The column names used for ``t``, ``x_ref``, ``x`` and, when the run has an effort,
-        ``u``.
-    warnings : tuple of str
-        Problems that do not prevent an analysis (positions that look like mm, no reversals,
-        a degenerate effort that was dropped).
-    n_reversals : int
-        Velocity reversals of the reference.
-    """
-
-    t: np.ndarray
-    x_ref: np.ndarray
-    x: np.ndarray
-    u: np.ndarray | None
-    ts: float
-    source: str = "<arrays>"
-    columns: dict[str, str | None] = field(default_factory=dict)
-    warnings: tuple[str, ...] = ()
-    n_reversals: int = 0
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples K."""
-        return int(self.t.shape[0])
-
-    @property
-    def duration(self) -> float:
-        """Length of the run, s."""
-        return float(self.t[-1] - self.t[0])
-
-    @property
-    def has_effort(self) -> bool:
-        """Whether an effort column was given."""
-        return self.u is not None
+RunData = Run
+"""The run type the loader returns: :class:`fricbench.run.Run` (kept as a name for old code)."""
 
 
 # -- helpers ------------------------------------------------------------------------------------

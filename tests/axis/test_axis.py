@@ -200,3 +200,21 @@ def test_batched_rows_equal_single_runs(m_serial) -> None:
     x_true = batch.run(rows(m_serial.x), rows(m_serial.v), rows(m_serial.a))[0]
     for i, ax in enumerate(axes):
         np.testing.assert_array_equal(x_true[i], simulate(ax, m_serial).x_true)
+
+
+def test_simulation_result_as_run() -> None:
+    """A simulation reads as the one run type, the type the loader and the predictors use."""
+    from fricbench.predictors import Run as PredictorRun
+    from fricbench.run import Run
+    from fricbench.sysid.io import RunData, validate_arrays
+    from fricbench.trajectories import make_trajectory
+
+    res = simulate(Axis(), make_trajectory("reversal_sine"), seed=0)
+    run = res.as_run()
+    assert isinstance(run, Run) and Run is PredictorRun is RunData
+    assert run.ts == Axis().controller.ts and run.has_effort
+    assert np.array_equal(run.x, res.x) and np.array_equal(run.u, res.u)
+    loaded = validate_arrays(res.t, res.x_ref, res.x, res.u)
+    assert isinstance(loaded, Run) and np.array_equal(loaded.x, run.x)
+    with pytest.raises(ValueError, match="axis=3"):
+        res.as_run(axis=3)
