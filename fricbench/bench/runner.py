@@ -11,12 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from fricbench.axis import SimulationResult, simulate
 from fricbench.bench.metrics import score_run
 from fricbench.compensators import (
     PRECOMP_PREFIX,
     Compensator,
-    EpisodeContext,
     compensator_registry,
     make_compensator,
 )
@@ -99,20 +97,6 @@ def bench_env(env_id: str, compensator: Compensator) -> ServoAxisEnv:
     return ServoAxisEnv(axis=spec.axis, task=task)
 
 
-def _rehearser(env: ServoAxisEnv) -> Callable[[np.ndarray, int], SimulationResult]:
-    axis, ref, mode = env.current_axis, env.reference, env.task.action
-    if ref is None:
-        raise RuntimeError("reset the env before building its rehearser")
-
-    def rehearse(u: np.ndarray, seed: int) -> SimulationResult:
-        """Run the episode's reference on the episode's axis with feedforward ``u``."""
-        if mode == "force":
-            return simulate(axis, ref, seed=seed, u_force=u)
-        return simulate(axis, ref, seed=seed, u_offset=u)
-
-    return rehearse
-
-
 def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = False,
                 reference: Reference | None = None) -> EpisodeRecord:
     """Score ``compensator`` on one episode; any exception becomes a failed record."""
@@ -123,14 +107,13 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
                            options={"trajectory": reference or task.trajectory})
         ref = env.reference
         assert ref is not None
-        ctx = EpisodeContext(reference=ref, nominal_axis=env.axis, task=env.task,
-                             rehearse=_rehearser(env))
+        ctx = env.episode_context()
         # rehearsal seeds differ from the scored run's noise seed
         compensator.reset(ctx, seed=task.seed + 7919)
         d, k_total = ref.n_axes, ref.n_samples
         err = np.zeros((d, k_total))
         effort = np.zeros((d, k_total))
-        err[:, 0] = np.atleast_2d(ref.x)[:, 0] - env._batch.true_position
+        err[:, 0] = np.atleast_2d(ref.x)[:, 0] - env.true_position
         t_act = 0.0
         for k in range(k_total - 1):
             t0 = time.perf_counter()

@@ -4,7 +4,7 @@ A compensator acts in the env loop::
 
     comp = make_compensator("kalman").fit("fricbench/PaperAxis-v0", seed=0)
     obs, info = env.reset(seed=s, options={"trajectory": "m_serial"})
-    comp.reset(EpisodeContext.from_env(env), seed=s)
+    comp.reset(env.episode_context(), seed=s)
     while not done:
         obs, reward, terminated, truncated, info = env.step(comp.act(obs))
 

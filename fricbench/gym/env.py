@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, SupportsFloat
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -24,6 +24,10 @@ from fricbench.gym.task import (
 from fricbench.trajectories import Reference
 
 __all__ = ["ServoAxisEnv"]
+
+
+if TYPE_CHECKING:
+    from fricbench.compensators.base import EpisodeContext
 
 
 class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -173,6 +177,43 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         self._history = {"t": [], "x_ref": [], "x": [], "error": []}
         self._record()
         return self._observation(), {"trajectory": ref.name, "friction": axis.friction.to_dict()}
+
+    @property
+    def true_position(self) -> np.ndarray:
+        """True table position of each axis at the current sample, m, shape (D,)."""
+        return self._batch.true_position.copy()
+
+    def episode_context(self, *, rehearsal: bool = True) -> EpisodeContext:
+        """What a compensator is told about the episode :meth:`reset` started.
+
+        Parameters
+        ----------
+        rehearsal : bool
+            Offer ``rehearse(u, seed)``: the episode's reference run on the episode's axis
+            with a feedforward ``u`` (for iterative learning before the scored run).
+
+        Returns
+        -------
+        EpisodeContext
+            The whole reference, the nominal axis (not the episode's randomised friction),
+            the task, and the rehearsal.
+        """
+        from fricbench.axis import SimulationResult, simulate
+        from fricbench.compensators.base import EpisodeContext
+
+        ref = self.reference
+        if ref is None:
+            raise RuntimeError("call reset() before episode_context()")
+        axis, mode = self.current_axis, self.task.action
+
+        def rehearse(u: np.ndarray, seed: int) -> SimulationResult:
+            """Run the episode's reference on the episode's axis with feedforward ``u``."""
+            if mode == "force":
+                return simulate(axis, ref, seed=seed, u_force=u)
+            return simulate(axis, ref, seed=seed, u_offset=u)
+
+        return EpisodeContext(reference=ref, nominal_axis=self.axis, task=self.task,
+                              rehearse=rehearse if rehearsal else None)
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool,
                                                  dict[str, Any]]:
