@@ -1,0 +1,32 @@
+"""One BLAS thread for the small dense solves of the fits.
+
+The fits call dense linear algebra on small problems between parallel numba simulations: the
+SVD of a 10,000 x 10 Jacobian in each step of :func:`scipy.optimize.least_squares`, the
+exponential of a 5 x 5 matrix in each first-order hold. OpenBLAS runs them on its thread pool,
+and on a loaded machine (other processes, or numba's workers still spinning after a parallel
+region) each call then waits for its threads. Measured on the shared 2-core machine at a load
+average of 5: that SVD 67 ms instead of about 2 ms, that exponential 3.5 ms instead of 30 us.
+With one thread the library solvers run as fast as the hand-written ones they replaced
+(``python -m fricbench.sysid.solver_benchmark``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+
+import scipy.linalg  # noqa: F401  (loads scipy's BLAS before the controller looks for it)
+from threadpoolctl import ThreadpoolController
+
+__all__ = ["one_blas_thread"]
+
+
+@functools.cache
+def _controller() -> ThreadpoolController:
+    # finding the loaded libraries takes milliseconds: once per process
+    return ThreadpoolController()
+
+
+def one_blas_thread() -> contextlib.AbstractContextManager[object]:
+    """Context in which numpy's and scipy's BLAS and LAPACK calls use one thread."""
+    return _controller().limit(limits=1, user_api="blas")
