@@ -95,7 +95,8 @@ class GreyBoxPredictor(Predictor):
         Starting Stribeck velocities, as fractions of the largest reference speed of the
         training runs (``friction="stribeck"``).
     max_iter : int, optional
-        Levenberg-Marquardt iterations of each joint fit.
+        Trial steps of each joint fit (evaluations after the start, in
+        :func:`scipy.optimize.least_squares`).
     n_poles, n_zeros : int, optional
         Structure of ``tf_`` (see :class:`fricbench.predictors.tf.TFPredictor`).
     verbose : int, optional

@@ -7,12 +7,13 @@ import math
 
 import numpy as np
 import pytest
+from scipy import optimize
 
 from fricbench.axis import Axis, simulate
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController, LoopInputs, fit_arx_controller
 from fricbench.sysid.diagnose.effects import EFFECT_NAMES, describe_parameters
-from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, solve_ls
+from fricbench.sysid.diagnose.leastsq import bounded_least_squares, solve_ls
 from fricbench.sysid.diagnose.models import (
     Bounds,
     GreyBox,
@@ -151,16 +152,32 @@ def test_solve_ls_with_sign_constraints():
     assert c[1] == 0.0
 
 
-def test_levenberg_marquardt_respects_bounds():
+def test_solve_ls_is_the_constrained_optimum():
+    """Two anti-correlated columns both come out negative unconstrained; clamping one makes
+    the other positive: the solution is the constrained optimum (clamping both at once, as an
+    active set that never frees a coefficient does, is not)."""
+    rng = np.random.default_rng(3)
+    X = rng.standard_normal((400, 3))
+    X[:, 2] = -X[:, 1] + 0.3 * rng.standard_normal(400)
+    y = X @ np.array([1.0, -1.0, -0.1]) + 0.01 * rng.standard_normal(400)
+    nonneg = np.array([False, True, True])
+    c = solve_ls(X, y, nonneg)
+    ref = optimize.lsq_linear(X, y, bounds=([-np.inf, 0.0, 0.0], np.inf)).x
+    assert c[1] == 0.0 and c[2] > 0.5
+    assert c == pytest.approx(ref, abs=1e-6)
+
+
+def test_bounded_least_squares_respects_bounds():
     target = np.array([0.3, -2.0])
 
     def residuals(thetas: np.ndarray) -> np.ndarray:
         return np.array([np.r_[th - target, 0.1 * th[0] * th[1]] for th in thetas])
 
-    sol = levenberg_marquardt(residuals, np.array([1.0, 1.0]), np.array([0.0, -1.0]),
-                              np.array([2.0, 2.0]), np.array([1e-6, 1e-6]), max_iter=50)
-    assert sol.theta[1] == pytest.approx(-1.0)  # held at the bound
-    assert 0.0 <= sol.theta[0] <= 2.0
+    sol = bounded_least_squares(residuals, np.array([1.0, 1.0]), np.array([0.0, -1.0]),
+                                np.array([2.0, 2.0]), np.array([1e-6, 1e-6]), max_iter=50)
+    assert sol.x[1] == pytest.approx(-1.0)  # held at the bound
+    assert 0.0 <= sol.x[0] <= 2.0
+    assert sol.jac.shape == (3, 2)
 
 
 def test_joint_position_fit_of_one_run_is_the_position_fit():

@@ -10,7 +10,7 @@ Modules, in the order of the workflow:
 * :mod:`~fricbench.sysid.diagnose.signals` - filtered derivatives, decimation, folds, the
   noise floor, spatial periods;
 * :mod:`~fricbench.sysid.diagnose.prepared` - everything derived once from a run;
-* :mod:`~fricbench.sysid.diagnose.leastsq` - small least-squares solvers;
+* :mod:`~fricbench.sysid.diagnose.leastsq` - the least-squares solves, on scipy's solvers;
 * :mod:`~fricbench.sysid.diagnose.controllers` - cascade and identified (ARX) control laws;
 * :mod:`~fricbench.sysid.diagnose.closed_loop` - the plant entries the effects fit; the grey box
   runs on the axis's own plant (:mod:`fricbench.axis.plant`) under a linear law

@@ -1,24 +1,27 @@
-"""Small least-squares solvers tuned for the diagnosis.
+"""Least-squares solves of the diagnosis, on scipy's solvers.
 
-The regressions here are tall and thin (thousands of rows, a dozen columns). They are solved
-through the scaled normal equations and a pseudo-inverse of the small Gram matrix, which costs
-one matrix product instead of a factorisation of the tall matrix (LAPACK's tall
-factorisations are slow when other processes load the machine). Columns are scaled to unit
-norm first, so the conditioning is that of the correlations between regressors.
-
-:func:`levenberg_marquardt` minimises a simulation error whose Jacobian is obtained by
-finite differences in one batched (parallel) simulation per iteration, and tries several
-damping values at once in a second batch.
+* :func:`solve_ls`: the inverse-dynamics and screening regressions, tall and thin (thousands
+  of rows, a dozen columns). They are reduced to their small Gram matrix first (one matrix
+  product instead of a factorisation of the tall matrix: LAPACK's tall factorisations are slow
+  when other processes load the machine), with columns scaled to unit norm so the conditioning
+  is that of the correlations between regressors. Sign constraints are solved on the reduced
+  problem by :func:`scipy.optimize.lsq_linear`.
+* :func:`bounded_least_squares`: the output-error fits, by
+  :func:`scipy.optimize.least_squares` (trust-region reflective, bounds) with a Jacobian from
+  finite differences computed in one batched (parallel) simulation per iteration, its dense
+  algebra on one BLAS thread (:mod:`fricbench._blas`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
+from scipy import optimize
 
-__all__ = ["solve_ls", "levenberg_marquardt", "LMResult", "sumsq", "matvec"]
+from fricbench._blas import one_blas_thread
+
+__all__ = ["solve_ls", "bounded_least_squares", "batched_jacobian", "sumsq", "matvec"]
 
 
 # Vector products go through einsum rather than BLAS: after a parallel numba region the
@@ -34,12 +37,6 @@ def matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.einsum("ij,j->i", A, x)
 
 
-def _pinv_solve(G: np.ndarray, b: np.ndarray, rcond: float = 1e-12) -> np.ndarray:
-    w, V = np.linalg.eigh(G)
-    keep = w > rcond * max(float(w.max()), 1e-300)
-    return matvec(V[:, keep], matvec(V[:, keep].T, b) / w[keep])
-
-
 def solve_ls(X: np.ndarray, y: np.ndarray, nonneg: np.ndarray | None = None,
              rcond: float = 1e-12) -> np.ndarray:
     """Least-squares coefficients of ``y ~ X c``, optionally with ``c[nonneg] >= 0``.
@@ -49,8 +46,8 @@ def solve_ls(X: np.ndarray, y: np.ndarray, nonneg: np.ndarray | None = None,
     X : ndarray, shape (n, p)
     y : ndarray, shape (n,)
     nonneg : ndarray of bool, shape (p,), optional
-        Coefficients constrained to be non-negative (active set: a coefficient that comes out
-        negative is fixed at 0 and the rest re-solved).
+        Coefficients constrained to be non-negative (solved by
+        :func:`scipy.optimize.lsq_linear` on the reduced problem).
     rcond : float
         Directions of the scaled Gram matrix with eigenvalues below ``rcond`` times the largest
         are dropped (collinear regressors).
@@ -66,54 +63,69 @@ def solve_ls(X: np.ndarray, y: np.ndarray, nonneg: np.ndarray | None = None,
     norm = np.sqrt(np.einsum("ij,ij->i", Xt, Xt))
     norm = np.where(norm > 0, norm, 1.0)
     Xs = Xt / norm[:, None]
-    G = Xs @ Xs.T
-    b = matvec(Xs, y)
-    free = np.ones(p, dtype=bool)
-    coef = np.zeros(p)
-    for _ in range(p + 1):
-        c = np.zeros(p)
-        idx = np.flatnonzero(free)
-        c[idx] = _pinv_solve(G[np.ix_(idx, idx)], b[idx], rcond)
-        coef = c / norm
-        if nonneg is None:
-            break
-        bad = free & nonneg & (coef < 0)
-        if not bad.any():
-            break
-        free &= ~bad
-    return coef
+    # ||X c - y||^2 = ||R c - d||^2 + const with X'X = R'R: G = V diag(w) V', R = diag(sqrt w) V'
+    w, V = np.linalg.eigh(Xs @ Xs.T)
+    keep = w > rcond * max(float(w.max()), 1e-300)
+    w, V = w[keep], V[:, keep]
+    Vb = matvec(V.T, matvec(Xs, y))
+    # minimum-norm solution in the kept directions: c = V diag(1/w) V' X'y
+    c = matvec(V, Vb / w)
+    if nonneg is not None and np.any(nonneg & (c < 0)):
+        # same problem, square: ||X c - y||^2 = ||R c - d||^2 + const, R = diag(sqrt w) V'
+        sw = np.sqrt(w)
+        lo = np.where(nonneg, 0.0, -np.inf)
+        c = optimize.lsq_linear(sw[:, None] * V.T, Vb / sw, bounds=(lo, np.inf),
+                                method="bvls").x
+    return c / norm
 
 
-@dataclass
-class LMResult:
-    """Outcome of :func:`levenberg_marquardt`.
+def batched_jacobian(residuals: Callable[[np.ndarray], np.ndarray], steps: np.ndarray,
+                     hi: np.ndarray) -> tuple[Callable[[np.ndarray], np.ndarray],
+                                              Callable[[np.ndarray], np.ndarray]]:
+    """``fun`` and ``jac`` for :func:`scipy.optimize.least_squares` from a batched residual.
 
-    Attributes
+    Parameters
     ----------
-    theta : ndarray
-        Solution.
-    residual : ndarray
-        Residual at the solution.
-    cost : float
-        Half the squared norm of the residual.
-    n_iter : int
-        Iterations (one Jacobian each).
-    jac_rows : ndarray or None
-        Jacobian at the start of the last iteration, one row per parameter.
+    residuals : callable
+        ``residuals(thetas)`` with ``thetas`` of shape (m, p) returns the residual vectors,
+        shape (m, n) (evaluated in parallel by the caller).
+    steps : ndarray, shape (p,)
+        Forward-difference steps (a step that would pass ``hi`` is taken backwards).
+    hi : ndarray, shape (p,)
+        Upper bounds.
+
+    Returns
+    -------
+    fun : callable
+        ``fun(theta)``, shape (n,).
+    jac : callable
+        ``jac(theta)``, shape (n, p): one batch of ``p`` simulations (the residual at ``theta``
+        is the one ``fun`` last returned when it was evaluated there).
     """
+    last: dict[str, np.ndarray] = {}
 
-    theta: np.ndarray
-    residual: np.ndarray
-    cost: float
-    n_iter: int
-    jac_rows: np.ndarray | None
+    def fun(theta: np.ndarray) -> np.ndarray:
+        r = residuals(theta[None, :])[0]
+        last["theta"], last["r"] = theta.copy(), r
+        return r
+
+    def jac(theta: np.ndarray) -> np.ndarray:
+        r = last["r"] if "theta" in last and np.array_equal(last["theta"], theta) else fun(theta)
+        # J[:, j] = (r(theta + h_j e_j) - r(theta)) / h_j
+        h = np.where(theta + steps <= hi, steps, -steps)
+        rs = residuals(theta[None, :] + np.diag(h))
+        return ((rs - r[None, :]) / h[:, None]).T
+
+    return fun, jac
 
 
-def levenberg_marquardt(residuals: Callable[[np.ndarray], np.ndarray], theta0: np.ndarray,
-                        lo: np.ndarray, hi: np.ndarray, steps: np.ndarray, *,
-                        max_iter: int = 20, ftol: float = 1e-4, lam0: float = 1e-2
-                        ) -> LMResult:
-    """Bounded Levenberg-Marquardt with batched finite differences.
+def bounded_least_squares(residuals: Callable[[np.ndarray], np.ndarray], theta0: np.ndarray,
+                          lo: np.ndarray, hi: np.ndarray, steps: np.ndarray, *,
+                          max_iter: int = 20, ftol: float = 1e-4) -> optimize.OptimizeResult:
+    """Bounded nonlinear least squares with batched finite differences.
+
+    :func:`scipy.optimize.least_squares` (``method="trf"``, Jacobian scaling) with the
+    Jacobian of :func:`batched_jacobian`.
 
     Parameters
     ----------
@@ -125,51 +137,21 @@ def levenberg_marquardt(residuals: Callable[[np.ndarray], np.ndarray], theta0: n
     lo, hi : ndarray, shape (p,)
         Bounds.
     steps : ndarray, shape (p,)
-        Finite-difference steps (a step that would leave the bounds is taken backwards).
+        Finite-difference steps.
     max_iter : int
-        Most iterations.
+        Most trial steps (evaluations of ``residuals`` at one point, after the start); with
+        ``max_iter=0`` only the Jacobian at the start is computed.
     ftol : float
-        Stop when an iteration lowers the cost by less than this fraction.
-    lam0 : float
-        Initial damping, relative to the diagonal of the Gram matrix.
+        Stop when a step lowers the cost by less than this fraction.
 
     Returns
     -------
-    LMResult
+    scipy.optimize.OptimizeResult
+        ``x``, ``cost``, ``fun`` (residual at ``x``), ``jac`` (shape (n, p), at ``x``),
+        ``nfev``, ``njev``, ...
     """
-    theta = np.clip(np.asarray(theta0, dtype=float), lo, hi)
-    r = residuals(theta[None, :])[0]
-    cost = 0.5 * sumsq(r)
-    lam = lam0
-    jac_rows = None
-    n_iter = 0
-    for _ in range(max_iter):
-        n_iter += 1
-        h = np.where(theta + steps <= hi, steps, -steps)
-        rs = residuals(theta[None, :] + np.diag(h))
-        jac_rows = (rs - r[None, :]) / h[:, None]
-        G = jac_rows @ jac_rows.T
-        g = matvec(jac_rows, r)
-        d = np.maximum(np.diag(G), 1e-12 * max(float(np.max(np.diag(G))), 1e-300))
-        trials = []
-        for lm in (lam * 0.1, lam, lam * 10.0):
-            try:
-                delta = -np.linalg.solve(G + lm * np.diag(d), g)
-            except np.linalg.LinAlgError:
-                delta = -_pinv_solve(G + lm * np.diag(d), g)
-            trials.append(np.clip(theta + delta, lo, hi))
-        rt = residuals(np.array(trials))
-        costs = 0.5 * np.einsum("ij,ij->i", rt, rt)  # no BLAS (see sumsq)
-        best = int(np.argmin(costs))
-        if not np.isfinite(costs[best]) or costs[best] >= cost:
-            lam *= 100.0
-            if lam > 1e8:
-                break
-            continue
-        improvement = (cost - costs[best]) / max(cost, 1e-300)
-        theta, r, cost = trials[best], rt[best], float(costs[best])
-        lam = (lam * 0.1, lam, lam * 10.0)[best]
-        lam = min(max(lam, 1e-7), 1e8)
-        if improvement < ftol:
-            break
-    return LMResult(theta, r, cost, n_iter, jac_rows)
+    theta0 = np.clip(np.asarray(theta0, dtype=float), lo, hi)
+    fun, jac = batched_jacobian(residuals, steps, hi)
+    with one_blas_thread():  # see fricbench._blas: an SVD of the Jacobian per step
+        return optimize.least_squares(fun, theta0, jac=jac, bounds=(lo, hi), method="trf",
+                                      x_scale="jac", ftol=ftol, max_nfev=max_iter + 1)

@@ -25,7 +25,7 @@ from scipy import optimize, signal
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController, LoopInputs
 from fricbench.sysid.diagnose.effects import get_effect
-from fricbench.sysid.diagnose.leastsq import levenberg_marquardt, matvec, solve_ls, sumsq
+from fricbench.sysid.diagnose.leastsq import bounded_least_squares, matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.diagnose.signals import (
@@ -317,18 +317,18 @@ class PositionFit:
                 last["batch"], last["thetas"] = ys, thetas.copy()
             return np.array([self._resid(y) for y in ys])
 
-        sol = levenberg_marquardt(residuals, theta0, lo, hi, steps, max_iter=max_iter)
-        fitted = _models_at(model, self.params, sol.theta[None, :])[0]
+        sol = bounded_least_squares(residuals, theta0, lo, hi, steps, max_iter=max_iter)
+        fitted = _models_at(model, self.params, sol.x[None, :])[0]
         y = None  # type: ignore[assignment]
-        if "theta" in last and np.array_equal(last["theta"], sol.theta):
+        if "theta" in last and np.array_equal(last["theta"], sol.x):
             y = last["y"]
         elif "thetas" in last:
-            hit = np.flatnonzero(np.all(last["thetas"] == sol.theta[None, :], axis=1))
+            hit = np.flatnonzero(np.all(last["thetas"] == sol.x[None, :], axis=1))
             if hit.size:
                 y = last["batch"][hit[0]]
         if y is None:
             y = simulate_position(fitted, self.prep, self.w)[0]
-        return PositionFitResult(fitted, y, sol.cost, sol.n_iter, sol.jac_rows)
+        return PositionFitResult(fitted, y, float(sol.cost), int(sol.njev), sol.jac.T)
 
 
 class JointPositionFit:
@@ -364,10 +364,10 @@ class JointPositionFit:
         if not self.params:
             return model, 0.5 * sumsq(self.residuals([model])[0])
         theta0, lo, hi, steps = _lm_box(self.params, model)
-        sol = levenberg_marquardt(
+        sol = bounded_least_squares(
             lambda th: self.residuals(_models_at(model, self.params, th)), theta0, lo, hi,
             steps, max_iter=max_iter)
-        return _models_at(model, self.params, sol.theta[None, :])[0], sol.cost
+        return _models_at(model, self.params, sol.x[None, :])[0], float(sol.cost)
 
 
 # -- inverse dynamics ---------------------------------------------------------------------------

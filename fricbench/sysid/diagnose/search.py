@@ -472,7 +472,7 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
     """
     scale = max(prep.noise.rms, 1e-9)
     r0 = (prep.x - y) / scale
-    res0 = PositionFit(prep, _eval_params(m, b)).run(m, max_iter=1)
+    res0 = PositionFit(prep, _eval_params(m, b)).run(m, max_iter=0)
     jac = res0.jac_rows if res0.jac_rows is not None else np.zeros((0, prep.n))
     base_lin = _linear_cv(r0, jac, prep.folds)
     probes: list[_Probe] = []
