@@ -25,8 +25,8 @@ The fit works on the tracking error ``e = x_ref - x`` rather than on ``x``: the 
 Denominator coefficients are optimised as logarithms (positive, as every stable polynomial's
 are) and the others scaled by powers of the loop's natural frequency, so the problem is well
 scaled whatever the bandwidth. Simulations discretise the continuous model with a first-order
-hold (the reference is smooth, so the linear interpolation between samples is accurate to
-``O(ts^2)``) and start at rest in steady state at ``x_ref[0]``.
+hold (:func:`scipy.signal.cont2discrete`; the reference is smooth, so the linear interpolation
+between samples is accurate to ``O(ts^2)``) and start at rest in steady state at ``x_ref[0]``.
 
 DC gain: free by default (``dc_gain=None``: ``b_0`` and ``a_0`` both fitted); ``dc_gain=1.0``
 constrains ``b_0 = a_0``, which holds for any position loop with integral action or a type-1
@@ -40,8 +40,9 @@ from collections.abc import Sequence
 
 import control
 import numpy as np
-from scipy import linalg, optimize, signal
+from scipy import optimize, signal
 
+from fricbench._blas import one_blas_thread
 from fricbench._validation import check_int, check_positive
 
 __all__ = ["fit_tf", "fit_tf_multi", "simulate_tf", "tf_error_response", "TFFitError"]
@@ -88,50 +89,17 @@ def _check_orders(n_poles: int, n_zeros: int) -> tuple[int, int]:
 
 
 # -- simulation -------------------------------------------------------------------------------
-def _expm_small(m: np.ndarray) -> np.ndarray:
-    """Matrix exponential of a small matrix: balancing, scaling and squaring, Taylor series.
-
-    ``scipy.linalg.expm`` is accurate too, but on a few-by-few matrix its LAPACK calls can cost
-    milliseconds when the BLAS thread pool is busy; this stays at a fraction of a millisecond,
-    and the fit calls it thousands of times.
-    """
-    mb, (sc, _) = linalg.matrix_balance(m, permute=False, separate=True)
-    nrm = float(np.max(np.sum(np.abs(mb), axis=1)))
-    squarings = int(np.ceil(np.log2(nrm / 0.25))) if nrm > 0.25 else 0
-    x = mb / 2.0**squarings
-    out = np.eye(m.shape[0])
-    term = np.eye(m.shape[0])
-    for k in range(1, 16):  # ||x|| <= 1/4: the remainder is below 1e-21
-        term = term @ x / k
-        out = out + term
-    for _ in range(squarings):
-        out = out @ out
-    # matrix_balance: mb = T^-1 m T with T = diag(sc)
-    return (out * sc[:, None]) / sc[None, :]
-
-
 def _foh(num: np.ndarray, den: np.ndarray, ts: float) -> tuple[np.ndarray, np.ndarray]:
     """First-order-hold discretisation of ``num/den`` (descending powers) as lfilter b, a.
 
     The input is taken as linear between samples (as ``control.forced_response`` does):
-    ``x+ = Phi x + G1 u_k + G2 (u_{k+1} - u_k)`` from one exponential of
-    ``[[A, B, 0], [0, 0, 1/ts], [0, 0, 0]] ts``, then ``xi = x - G2 u`` makes it causal.
+    :func:`scipy.signal.cont2discrete` with ``method="foh"``.
     """
     num = np.atleast_1d(np.asarray(num, dtype=float))
     den = np.atleast_1d(np.asarray(den, dtype=float))
     if len(den) == 1:
         return num / den[0], np.ones(1)
-    a_c, b_c, c_c, d_c = signal.tf2ss(num, den)
-    n = a_c.shape[0]
-    blk = np.zeros((n + 2, n + 2))
-    blk[:n, :n] = a_c * ts
-    blk[:n, n:n + 1] = b_c * ts
-    blk[n, n + 1] = 1.0
-    e = _expm_small(blk)
-    phi, g1, g2 = e[:n, :n], e[:n, n:n + 1], e[:n, n + 1:n + 2]
-    b_d = phi @ g2 + g1 - g2
-    d_d = d_c + c_c @ g2
-    numd, dend = signal.ss2tf(phi, b_d, c_c, d_d)
+    numd, dend, _ = signal.cont2discrete((num, den), ts, method="foh")
     return np.ravel(numd), np.ravel(dend)
 
 
@@ -196,7 +164,8 @@ def tf_error_response(tf: control.TransferFunction, x_ref: np.ndarray, ts: float
     c_desc = np.trim_zeros(den - num_full, "f")
     if c_desc.size == 0:
         return np.zeros_like(u)
-    b, a = _foh(c_desc, den, ts)
+    with one_blas_thread():
+        b, a = _foh(c_desc, den, ts)
     u0 = u[0]
     # from rest in steady state at u0: e = (C/D)(u - u0) + C(0)/D(0) u0
     return signal.lfilter(b, a, u - u0) + (c_desc[-1] / den[-1]) * u0
@@ -358,7 +327,14 @@ def fit_tf_multi(
             sqrt_w.append(np.sqrt(w_arr))
     if sum(float(np.sum(w > 0)) for w in sqrt_w) < _MIN_SAMPLES:
         raise TFFitError(f"fewer than {_MIN_SAMPLES} samples have a non-zero weight")
-    lay = _Layout(n, m, dc_gain)
+    with one_blas_thread():  # see fricbench._blas: thousands of small matrix exponentials
+        return _fit(runs, sqrt_w, ts, _Layout(n, m, dc_gain), max_nfev)
+
+
+def _fit(runs: list[tuple[np.ndarray, np.ndarray]], sqrt_w: list[np.ndarray], ts: float,
+         lay: _Layout, max_nfev: int) -> control.TransferFunction:
+    """Output-error fit of validated runs ``(x_ref, e)`` (see :func:`fit_tf_multi`)."""
+    n = lay.n
     e_all = np.concatenate([e - np.mean(e) for _, e in runs])
     e_scale = float(np.sqrt(np.mean(e_all**2))) or 1.0
     n_total = sum(len(u) for u, _ in runs)
