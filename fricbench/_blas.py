@@ -7,7 +7,7 @@ and on a loaded machine (other processes, or numba's workers still spinning afte
 region) each call then waits for its threads. Measured on the shared 2-core machine at a load
 average of 5: that SVD 67 ms instead of about 2 ms, that exponential 3.5 ms instead of 30 us.
 With one thread the library solvers run as fast as the hand-written ones they replaced
-(``python -m fricbench.sysid.solver_benchmark``).
+(``python -m fricbench.bench.solver_benchmark``).
 """
 
 from __future__ import annotations

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fricbench.sysid import tf_fit
-from fricbench.sysid.solver_benchmark import (
+from fricbench.bench.solver_benchmark import (
     _own_foh,
     compare_fits,
     compare_regressions,
 )
+from fricbench.sysid import tf_fit
 
 
 def test_former_hold_matches_the_library_hold():

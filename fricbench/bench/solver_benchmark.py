@@ -1,6 +1,6 @@
 """Library solvers against the project's former hand-written ones, on diagnosis problems.
 
-``python -m fricbench.sysid.solver_benchmark [--emps DIR] [--samples 10000]``
+``python -m fricbench.bench.solver_benchmark [--emps DIR] [--samples 10000]``
 
 The project keeps a numerical routine of its own only where it is more than 1.5 times
 faster than the library's at equal accuracy, measured here in one process. Three pairs:
@@ -313,14 +313,14 @@ def compare_holds(x_ref: np.ndarray, x: np.ndarray, ts: float, what: str,
 # -- the problems -------------------------------------------------------------------------------
 def simulated_run(samples: int = 10_000, seed: int = 0) -> Any:
     """Position-only run of the default axis with Stribeck friction and a cogging ripple."""
-    from fricbench.sysid.diagnose.benchmark import benchmark_run
+    from fricbench.bench.diagnose_timing import benchmark_run
 
     return benchmark_run(samples, effort=False, seed=seed)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command line: print both solvers' time and cost on each problem set, and the ratio."""
-    ap = argparse.ArgumentParser(prog="python -m fricbench.sysid.solver_benchmark",
+    ap = argparse.ArgumentParser(prog="python -m fricbench.bench.solver_benchmark",
                                  description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=10_000,
                     help="length of the simulated run (default 10000)")
