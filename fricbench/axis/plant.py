@@ -156,14 +156,19 @@ def constants(p: np.ndarray) -> Plant:
     m = p[M]
     visc = p[B] + p[FV]
     # M_eff = M + h (B + fv_dir): the implicit update's effective mass in each direction
+    # (divisions only where a term is on: the vector env unpacks a row at every step)
     meff_pos = m + h * max(visc + 0.5 * p[DB], 0.0)
-    meff_neg = m + h * max(visc - 0.5 * p[DB], 0.0)
     inv_pos = 1.0 / meff_pos if meff_pos != 0.0 else math.inf
-    inv_neg = 1.0 / meff_neg if meff_neg != 0.0 else math.inf
+    inv_neg = inv_pos
+    if p[DB] != 0.0:
+        meff_neg = m + h * max(visc - 0.5 * p[DB], 0.0)
+        inv_neg = 1.0 / meff_neg if meff_neg != 0.0 else math.inf
     # no Stribeck hump (or vs <= 0): plain Coulomb, and the substep skips the exponential
     inv_vs = 1.0 / p[VS] if (p[VS] > 0.0 and p[FS_EXCESS] != 0.0) else 0.0
-    cog_k = 2.0 * math.pi / p[COG_PERIOD] if p[COG_PERIOD] != 0.0 else 0.0
-    pd_k = 2.0 * math.pi / p[PD_PERIOD] if p[PD_PERIOD] != 0.0 else 0.0
+    cog_on = (p[COG_SIN] != 0.0 or p[COG_COS] != 0.0) and p[COG_PERIOD] != 0.0
+    cog_k = 2.0 * math.pi / p[COG_PERIOD] if cog_on else 0.0
+    pd_on = (p[PD_SIN] != 0.0 or p[PD_COS] != 0.0) and p[PD_PERIOD] != 0.0
+    pd_k = 2.0 * math.pi / p[PD_PERIOD] if pd_on else 0.0
     return Plant(h, n_sub, m, p[B], p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
                  p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
                  p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS], cog_k, p[PD_GRAD],
