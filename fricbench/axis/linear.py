@@ -1,13 +1,41 @@
-"""The linear part of the axis (friction and effects off) as python-control systems."""
+"""The linear part of the axis (friction and effects off) as python-control systems.
+
+:func:`closed_loop` is the loop of the continuous mechanics sampled exactly (the oracle of the
+kernel); :func:`sampled_closed_loop` is the loop as the kernel integrates it (its substeps and
+the actuator delay), whose poles :func:`check_stability` inspects when an
+:class:`~fricbench.axis.Axis` is built.
+"""
 
 from __future__ import annotations
+
+from dataclasses import replace
+from functools import lru_cache
+from typing import Any
 
 import control
 import numpy as np
 
-from fricbench.axis.params import Axis
+from fricbench.axis.params import Axis, ControllerParams, Effects, MechanicsParams
 
-__all__ = ["closed_loop", "closed_loop_tf_continuous", "controller", "plant"]
+__all__ = [
+    "STABILITY_MARGIN",
+    "check_stability",
+    "closed_loop",
+    "closed_loop_tf_continuous",
+    "controller",
+    "plant",
+    "sampled_closed_loop",
+    "sampled_plant",
+    "spectral_radius",
+]
+
+STABILITY_MARGIN = 1.0e-6
+"""Tolerance on the unit circle: a loop is refused when a pole has ``|z| > 1 + margin``.
+
+Poles exactly on the circle are allowed (a controller switched off, ``kp = kv = 0``, or
+``ti = 0``, which leaves an inert integrator state, puts poles at ``z = 1``); the margin covers
+the rounding of eigenvalues there (a double pole at ``z = 1`` is found to about 1e-8).
+"""
 
 
 def plant(axis: Axis, discrete: bool = True) -> control.StateSpace:
@@ -26,13 +54,56 @@ def plant(axis: Axis, discrete: bool = True) -> control.StateSpace:
     return sys
 
 
+def sampled_plant(axis: Axis) -> control.StateSpace:
+    """The mechanics as the kernel advances them over one sample, friction and effects off.
+
+    ``n_substeps`` substeps of ``h = ts / n_substeps`` with the force held, each
+    ``v+ = (M v + h F) / (M + h B)`` (implicit in the damping) and ``x+ = x + h (v + v+) / 2``
+    (:func:`fricbench.axis.plant.advance`), after a pure delay of ``delay_samples`` samples on
+    the command. Inputs ``F`` (commanded motor force) and ``d`` (disturbance, not delayed), N;
+    states ``x, v`` and the commands in transit; output ``x``.
+    """
+    return _sampled_plant(axis.controller, axis.mechanics, axis.effects.delay_samples)
+
+
+def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int) -> control.StateSpace:
+    h = c.ts / c.n_substeps
+    # one substep: v+ = g v + b F, x+ = x + h/2 (1 + g) v + h/2 b F
+    g = m.mass / (m.mass + h * m.damping)
+    b = h / (m.mass + h * m.damping)
+    a_sub = np.array([[1.0, 0.5 * h * (1.0 + g)], [0.0, g]])
+    b_sub = np.array([0.5 * h * b, b])
+    a_mech, b_mech = np.eye(2), np.zeros(2)
+    for _ in range(c.n_substeps):
+        a_mech, b_mech = a_sub @ a_mech, a_sub @ b_mech + b_sub
+    n = 2 + delay
+    a, bm = np.zeros((n, n)), np.zeros((n, 2))
+    a[:2, :2] = a_mech
+    bm[:2, 1] = b_mech
+    if delay:
+        # states 2.. hold F[k-1] .. F[k-delay]; the mechanics get F[k-delay]
+        a[:2, n - 1] = b_mech
+        a[2:, 2:] = np.eye(delay, k=-1)
+        bm[2, 0] = 1.0
+    else:
+        bm[:2, 0] = b_mech
+    cm = np.zeros((1, n))
+    cm[0, 0] = 1.0
+    states = ["x", "v"] + [f"F[k-{i}]" for i in range(1, delay + 1)]
+    return control.ss(a, bm, cm, np.zeros((1, 2)), c.ts, inputs=["F", "d"], outputs=["x"],
+                      states=states, name="plant")
+
+
 def controller(axis: Axis) -> control.StateSpace:
     """The sampled cascade controller; inputs ``x_ref, v_ref, a_ref, u, x``, output ``F`` (N).
 
     ``e_v = kp (x_ref - x) + kvff v_ref - (x - x_prev)/ts``;
     ``F = kt kv (e_v + I) + kaff M a_ref + u``; ``I+ = I + ts/ti e_v``; states ``[x_prev, I]``.
     """
-    c, m = axis.controller, axis.mechanics
+    return _controller(axis.controller, axis.mechanics)
+
+
+def _controller(c: ControllerParams, m: MechanicsParams) -> control.StateSpace:
     ts, kp, kvff = c.ts, c.kp, c.kvff
     gain = c.kt * c.kv
     ki = ts / c.ti if c.ti > 0 else 0.0
@@ -60,6 +131,93 @@ def closed_loop(axis: Axis) -> control.StateSpace:
     return control.interconnect(
         [plant(axis, True), controller(axis)],
         inputs=["x_ref", "v_ref", "a_ref", "u", "d"], outputs=["x"], name="axis")
+
+
+def sampled_closed_loop(axis: Axis) -> control.StateSpace:
+    """The loop the kernel runs with friction and effects off, at ``ts``: :func:`sampled_plant`
+    (substeps and actuator delay) closed by :func:`controller`. Inputs and output as in
+    :func:`closed_loop` (current saturation, sensor effects and friction left out)."""
+    return _sampled_loop(axis.controller, axis.mechanics, axis.effects.delay_samples)
+
+
+def _sampled_loop(c: ControllerParams, m: MechanicsParams, delay: int) -> control.StateSpace:
+    return control.interconnect(
+        [_sampled_plant(c, m, delay), _controller(c, m)],
+        inputs=["x_ref", "v_ref", "a_ref", "u", "d"], outputs=["x"], name="axis")
+
+
+@lru_cache(maxsize=512)
+def _radius(c: ControllerParams, m: MechanicsParams, delay: int) -> float:
+    # keyed by the frozen parameter sets: friction (redrawn per episode) is not part of the key
+    return float(np.max(np.abs(_sampled_loop(c, m, delay).poles())))
+
+
+def spectral_radius(axis: Axis) -> float:
+    """Largest pole magnitude ``|z|`` of :func:`sampled_closed_loop` (below 1: stable)."""
+    return _radius(axis.controller, axis.mechanics, axis.effects.delay_samples)
+
+
+def check_stability(axis: Axis) -> None:
+    """Raise ``ValueError`` when the sampled linear loop of ``axis`` is unstable.
+
+    The poles of :func:`sampled_closed_loop` must satisfy ``|z| <= 1 + STABILITY_MARGIN``.
+    Current saturation would otherwise hold an unstable loop bounded and an episode would run
+    silently with a limit cycle. The message names the parameters most likely responsible:
+    those whose default alone makes the loop stable (else every loop parameter changed from
+    its default), with the values of the others and the two rules of thumb.
+    """
+    c, m, delay = axis.controller, axis.mechanics, axis.effects.delay_samples
+    rho = _radius(c, m, delay)
+    if rho <= 1.0 + STABILITY_MARGIN:
+        return
+    raise ValueError(_unstable_message(c, m, delay, rho))
+
+
+# the parameters that move the poles: (section, name, unit); the first six are listed by value
+_LOOP = (("controller", "kp", "1/s"), ("controller", "kv", "A s/m"), ("controller", "ti", "s"),
+         ("controller", "kt", "N/A"), ("mechanics", "mass", "kg"),
+         ("mechanics", "damping", "N s/m"), ("controller", "ts", "s"),
+         ("controller", "n_substeps", ""), ("effects", "delay_samples", ""))
+_DEFAULTS: dict[str, Any] = {"controller": ControllerParams(), "mechanics": MechanicsParams(),
+                             "effects": Effects()}
+
+
+def _unstable_message(c: ControllerParams, m: MechanicsParams, delay: int, rho: float) -> str:
+    given: dict[str, Any] = {"controller": c, "mechanics": m,
+                             "effects": Effects(delay_samples=delay)}
+    units = {name: unit for _, name, unit in _LOOP}
+
+    def value(parts: dict[str, Any], key: tuple[str, str]) -> Any:
+        return getattr(parts[key[0]], key[1])
+
+    def show(parts: dict[str, Any], key: tuple[str, str]) -> str:
+        return f"{key[1]}={value(parts, key):g}" + (f" {units[key[1]]}" if units[key[1]] else "")
+
+    def radius_at_default(key: tuple[str, str]) -> float:
+        parts = dict(given)
+        parts[key[0]] = replace(parts[key[0]], **{key[1]: value(_DEFAULTS, key)})
+        return _radius(parts["controller"], parts["mechanics"], parts["effects"].delay_samples)
+
+    loop = [(section, name) for section, name, _ in _LOOP]
+    changed = [key for key in loop if value(given, key) != value(_DEFAULTS, key)]
+    # the parameters whose default alone makes the loop stable are the likely culprits
+    fixes = {key: r for key in changed
+             if (r := radius_at_default(key)) <= 1.0 + STABILITY_MARGIN}
+    blamed = list(fixes) or changed or [("controller", "kv")]
+    head = ", ".join(f"{key[0]}.{show(given, key)}" for key in blamed)
+    others = ", ".join(show(given, key) for key in loop[:6] if key not in blamed)
+    if fixes:
+        fix = "; ".join(f"{show(_DEFAULTS, key)} (the default) gives |z|={r:.3g}"
+                        for key, r in fixes.items())
+    else:
+        fix = ("the defaults " + ", ".join(show(_DEFAULTS, key) for key in blamed)
+               + " together give a stable loop")
+    wv = c.kv * c.kt / m.mass
+    return (head + (f" with {others}" if others else "")
+            + f": the sampled closed loop is unstable (pole |z|={rho:.4g} at ts={c.ts:g} s, "
+            f"{c.n_substeps} substeps, {delay} samples of delay); expected every pole |z| <= 1 "
+            f"({fix}; rules of thumb: kv*kt/mass*ts = {wv * c.ts:.3g}, below about 0.6, and "
+            f"kp = {c.kp:g} 1/s well below kv*kt/mass = {wv:.3g} rad/s)")
 
 
 def closed_loop_tf_continuous(axis: Axis) -> control.TransferFunction:

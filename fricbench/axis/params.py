@@ -191,6 +191,14 @@ class Axis:
         Any registered friction model (default: the paper-calibrated Stribeck law).
     effects : Effects
 
+    Raises
+    ------
+    ValueError
+        If the sampled linear loop (controller, mechanics, substeps and actuator delay; friction
+        left out) is unstable (:func:`fricbench.axis.linear.check_stability`). Change gains and
+        mechanics together (``Axis.from_dict`` or ``dataclasses.replace``) when a step in
+        between would be unstable.
+
     Examples
     --------
     >>> from fricbench.axis import Axis
@@ -213,6 +221,10 @@ class Axis:
             raise TypeError(f"friction={self.friction!r}: expected a FrictionModel")
         if not isinstance(self.effects, Effects):
             raise TypeError(f"effects={self.effects!r}: expected Effects")
+        # an unstable loop would run bounded by the current saturation, silently: refuse it
+        from fricbench.axis.linear import check_stability
+
+        check_stability(self)
 
     # -- construction helpers -----------------------------------------------------------------
     @classmethod

@@ -74,8 +74,9 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    Truncation at the last sample of the trajectory; no termination. A diverging simulation
-    (unstable user parameters) raises :class:`~fricbench.axis.SimulationDivergedError`.
+    Truncation at the last sample of the trajectory; no termination. An axis whose sampled
+    linear loop is unstable is refused when it is built (``ValueError``); a simulation that
+    still diverges raises :class:`~fricbench.axis.SimulationDivergedError`.
 
     ## Arguments
 

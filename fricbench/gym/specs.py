@@ -325,7 +325,12 @@ def _check_axis(value: Any, problems: list[str]) -> Axis | None:
     friction = _check_friction(value.get("friction", {"id": "stribeck"}), problems)
     if controller is None or mechanics is None or effects is None or friction is None:
         return None
-    return Axis(controller=controller, mechanics=mechanics, friction=friction, effects=effects)
+    try:
+        return Axis(controller=controller, mechanics=mechanics, friction=friction,
+                    effects=effects)
+    except ValueError as exc:  # an unstable loop: the message starts with "controller.kp=..."
+        problems.append(f"axis.{exc}")
+        return None
 
 
 def _check_friction(value: Any, problems: list[str]) -> FrictionModel | None:

@@ -47,6 +47,8 @@ CORPUS: list[tuple[str, dict[str, str | bytes], str, str, str]] = [
      "bad.toml", "task.reward.error_scale=", "expected a number"),
     ("bad-value", {"bad.toml": HEAD + "[axis.mechanics]\nmass = -1.0\n"}, "bad.toml",
      "axis.mechanics.mass=-1.0", "expected > 0"),
+    ("unstable-loop", {"bad.toml": HEAD + "[axis.controller]\nkp = 1e6\n"}, "bad.toml",
+     "axis.controller.kp=1e+06 1/s", "the sampled closed loop is unstable"),
     ("unknown-top-key", {"bad.toml": HEAD + 'descripton = "x"\n'}, "bad.toml", "descripton",
      "did you mean 'description'"),
     ("unknown-axis-section", {"bad.toml": HEAD + "[axis.controler]\nkp = 100.0\n"}, "bad.toml",

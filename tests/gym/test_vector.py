@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from fricbench.axis import SimulationDivergedError
+from fricbench.axis import kernel as K
 from fricbench.gym import get_spec
 from fricbench.gym.task import TrajectoryChoice
 from fricbench.gym.vector import ServoAxisVectorEnv
@@ -73,8 +74,11 @@ def test_out_of_range_actions_are_clipped() -> None:
 
 
 def test_unstable_parameters_raise_naming_the_sub_env() -> None:
-    venv = _venv(2, kv=5000.0, i_max=1e9)
+    # such an Axis is refused when built; the runtime check sees gains packed by hand
+    venv = _venv(2)
     venv.reset(seed=0)
+    venv._batch.P[:, K.P_KV] = 5000.0
+    venv._batch.P[:, K.P_IMAX] = 1e9
     with pytest.raises(SimulationDivergedError, match="sub-env 0.*unstable"):
         for _ in range(3000):
             venv.step(np.zeros((2, 1)))
