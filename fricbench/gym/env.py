@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import gymnasium as gym
@@ -46,7 +47,8 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
     force ``a * action_scale`` N added to the velocity-loop output (default 600 N per unit, above
     the default breakaway force of 500 N). ``task.action == "offset"``: reference offset
     ``a * action_scale`` m (pre-compensation). Out-of-range actions are clipped to [-1, 1];
-    NaN or inf raise ``ValueError``.
+    NaN or inf, or a shape other than ``(D,)`` (a plain number for ``D = 1``), raise
+    ``ValueError``; values that are not real numbers (strings, complex, bool) ``TypeError``.
 
     ## Observation Space
 
@@ -135,11 +137,14 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
     # -- episode ------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"options={options!r} ({type(options).__name__}): expected a dict "
+                            "such as {'trajectory': 'curve'}, or None")
         super().reset(seed=seed)
         options = options or {}
         unknown = set(options) - {"trajectory"}
         if unknown:
-            raise ValueError(f"reset options: unknown keys {sorted(unknown)}; "
+            raise ValueError(f"reset options: unknown keys {sorted(unknown, key=repr)}; "
                              "expected 'trajectory'")
         traj = options.get("trajectory")
         rng = self.np_random
@@ -223,10 +228,11 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._k >= self.reference.n_samples - 1:
             raise RuntimeError("episode is over (truncated): call reset()")
         a = self._act
-        try:
-            a[:] = np.reshape(action, (self.n_axes,))
-        except (ValueError, TypeError):
-            a = check_action(action, (self.n_axes,))  # raises with the expected shape
+        if type(action) is np.ndarray and action.shape == a.shape and action.dtype.kind == "f":
+            a[:] = action
+        else:
+            # anything else is checked: real numbers of shape (D,) (a plain number for D = 1)
+            a = check_action(action, a.shape, also=((),) if self.n_axes == 1 else ())
         target = self._u_force if self.task.action == "force" else self._u_off
         if not apply_action(a, self.task.action_scale, target):
             raise ValueError(f"action={np.asarray(action)!r}: contains NaN or inf")

@@ -641,8 +641,20 @@ def make_env(spec_id: str, render_mode: str | None = None, **overrides: Any) -> 
     unknown = set(overrides) - {"axis", "task"}
     if unknown:
         raise TypeError(f"make_env: unexpected arguments {sorted(unknown)}; expected axis, task")
+    _check_overrides(spec, overrides)
     return ServoAxisEnv(axis=overrides.get("axis", spec.axis),
                         task=overrides.get("task", spec.task), render_mode=render_mode)
+
+
+def _check_overrides(spec: EnvSpecFile, overrides: Mapping[str, Any]) -> None:
+    """``axis`` and ``task`` given to ``gym.make`` replace the spec's: they must be an
+    :class:`Axis` and a :class:`TaskConfig` (``None`` would silently give the default axis)."""
+    for name, cls in (("axis", Axis), ("task", TaskConfig)):
+        if name in overrides and not isinstance(overrides[name], cls):
+            value = overrides[name]
+            raise TypeError(f"{name}={_show(value)} ({type(value).__name__}): expected "
+                            f"{'an' if name == 'axis' else 'a'} {cls.__name__}, or leave "
+                            f"{name} out for the one of {spec.id}")
 
 
 def make_vector_env(spec_id: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:
@@ -650,6 +662,7 @@ def make_vector_env(spec_id: str, num_envs: int = 1, **kwargs: Any) -> gym.vecto
     from fricbench.gym.vector import ServoAxisVectorEnv
 
     spec = get_spec(spec_id)
+    _check_overrides(spec, kwargs)
     kwargs.setdefault("axis", spec.axis)
     kwargs.setdefault("task", spec.task)
     return ServoAxisVectorEnv(num_envs=num_envs, **kwargs)

@@ -34,7 +34,9 @@ __all__ = [
     "RewardConfig",
     "TaskConfig",
     "TrajectoryChoice",
+    "action_array",
     "apply_action",
+    "check_action",
     "fill_observation",
     "observe_row",
     "n_features",
@@ -305,14 +307,36 @@ def apply_action(action: np.ndarray, scale: float, out: np.ndarray) -> bool:
     return True
 
 
-def check_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
-    """Validate an action: NaN/inf raise ``ValueError``; out-of-range values are clipped."""
-    a = np.asarray(action, dtype=np.float64)
-    if a.shape != shape:
-        if a.size == int(np.prod(shape)):
-            a = a.reshape(shape)
-        else:
-            raise ValueError(f"action has shape {np.shape(action)}: expected {shape}")
+def action_array(action: Any, shape: tuple[int, ...], name: str = "action",
+                 also: tuple[tuple[int, ...], ...] = ()) -> np.ndarray:
+    """``action`` as a float64 array of ``shape`` (finiteness is not checked here).
+
+    Real numbers only (float, int): strings, complex, boolean and object values raise
+    ``TypeError``; a shape other than ``shape`` or one of ``also`` raises ``ValueError``.
+    """
+    expected = "shape " + " or ".join("a plain number" if s == () else str(s)
+                                      for s in (shape, *also))
+    if isinstance(action, (str, bytes)):
+        raise TypeError(f"{name}={action!r} ({type(action).__name__}): expected real numbers, "
+                        f"{expected}")
+    try:
+        a = np.asarray(action)
+    except (TypeError, ValueError):  # ragged nested sequences
+        raise ValueError(f"{name}: a {type(action).__name__} that is not a rectangular array of "
+                         f"numbers; expected {expected}") from None
+    if a.dtype.kind not in "fiu":
+        raise TypeError(f"{name} has dtype {a.dtype} ({type(action).__name__}): expected real "
+                        f"numbers (float), {expected}")
+    if a.shape != shape and a.shape not in also:
+        raise ValueError(f"{name} has shape {a.shape}: expected {expected}")
+    return a.astype(np.float64).reshape(shape)
+
+
+def check_action(action: Any, shape: tuple[int, ...],
+                 also: tuple[tuple[int, ...], ...] = ()) -> np.ndarray:
+    """Validate an action (:func:`action_array`): NaN/inf raise ``ValueError``; out-of-range
+    values are clipped."""
+    a = action_array(action, shape, also=also)
     if not np.isfinite(a).all():
         raise ValueError(f"action={np.asarray(action)!r}: contains NaN or inf")
     return np.clip(a, -1.0, 1.0)

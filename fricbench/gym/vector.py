@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -9,10 +10,12 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from fricbench._validation import check_int
 from fricbench.axis import Axis, AxisBatch
 from fricbench.axis.batch import SimulationDivergedError
 from fricbench.gym.task import (
     TaskConfig,
+    action_array,
     fill_observation,
     n_features,
     obs_scales,
@@ -53,12 +56,17 @@ class ServoAxisVectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, axis: Axis | None = None,
                  task: TaskConfig | None = None, reference_pool: int = 4, seed: int = 0,
                  render_mode: str | None = None) -> None:
-        if not isinstance(num_envs, int) or num_envs < 1:
-            raise ValueError(f"num_envs={num_envs!r}: expected an integer >= 1")
+        num_envs = check_int("num_envs", num_envs, 1)
+        reference_pool = check_int("reference_pool", reference_pool, 1)
+        seed = check_int("seed", seed, 0)
         if render_mode is not None:
             raise ValueError("render_mode: the vector env does not render; use ServoAxisEnv")
         self.axis = Axis() if axis is None else axis
         self.task = TaskConfig() if task is None else task
+        if not isinstance(self.axis, Axis):
+            raise TypeError(f"axis={axis!r}: expected an Axis")
+        if not isinstance(self.task, TaskConfig):
+            raise TypeError(f"task={task!r}: expected a TaskConfig")
         self.num_envs = num_envs
         self.ts = self.axis.controller.ts
         cfg = self.task.observation
@@ -90,6 +98,9 @@ class ServoAxisVectorEnv(VectorEnv):
         self._no_noise = np.zeros(n)
         # one generator for every draw; Gymnasium's ``np_random`` property shows the same one
         self._rng = self._np_random = np.random.default_rng(seed)
+        self._needs_reset = True
+        # actions of the action space's shape (N, 1), or (N,); checked before the compiled step
+        self._action_shapes = ((num_envs, 1), (num_envs,))
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         idx = np.flatnonzero(rows)
@@ -111,20 +122,30 @@ class ServoAxisVectorEnv(VectorEnv):
         if isinstance(seed, list):
             seed = seed[0] if seed else None
         if seed is not None:
-            self._rng = self._np_random = np.random.default_rng(seed)
+            seed = check_int("seed", seed, 0)
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"options={options!r} ({type(options).__name__}): expected None; "
+                            "the vector env takes no reset options")
         if options:
-            raise ValueError(f"reset options {sorted(options)}: the vector env takes none")
+            raise ValueError(f"reset options {sorted(options, key=repr)}: the vector env takes "
+                             "none")
+        if seed is not None:
+            self._rng = self._np_random = np.random.default_rng(seed)
         self._reset_rows(np.ones(self.num_envs, dtype=bool))
         self._autoreset[:] = False
+        self._needs_reset = False
         return self._observation(), {}
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                                  dict[str, Any]]:
-        a = np.asarray(actions, dtype=np.float64)
-        if a.size != self.num_envs or a.ndim > 2:
-            raise ValueError(f"actions have shape {np.shape(actions)}: expected "
-                             f"({self.num_envs}, 1)")
-        a = a.reshape(self.num_envs)
+        if self._needs_reset:
+            raise RuntimeError("call reset() before step()")
+        shape = self._action_shapes
+        if type(actions) is np.ndarray and actions.dtype.kind == "f" and actions.shape in shape:
+            a = actions.astype(np.float64, copy=False).reshape(self.num_envs)
+        else:
+            # finiteness and clipping are the compiled step's (it skips the held rows)
+            a = action_array(actions, shape[0], "actions", also=shape[1:]).reshape(self.num_envs)
         hold = self._autoreset
         if hold.any():
             self._reset_rows(hold)

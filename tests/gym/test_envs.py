@@ -91,6 +91,53 @@ def test_wrong_action_shape_raises() -> None:
         env.step(np.zeros(3))
 
 
+@pytest.mark.parametrize("action,error,message", [
+    ("0.5", TypeError, r"action='0.5' \(str\): expected real numbers"),
+    (np.array(["0.5"]), TypeError, r"action has dtype <U3 \(ndarray\)"),
+    (np.array([0.5 + 0.5j]), TypeError, r"action has dtype complex128"),
+    ([True], TypeError, r"action has dtype bool \(list\)"),
+    (np.zeros((1, 1, 1)), ValueError, r"action has shape \(1, 1, 1\): expected shape \(1,\)"),
+    ([[0.1], [0.2, 0.3]], ValueError, r"not a rectangular array"),
+])
+def test_action_of_the_wrong_kind_is_refused(action, error, message) -> None:
+    env = gym.make("fricbench/PaperAxis-v0")
+    env.reset(seed=0)
+    state = env.unwrapped._batch.S.copy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a complex action used to warn and run
+        with pytest.raises(error, match=message):
+            env.step(action)
+    np.testing.assert_array_equal(env.unwrapped._batch.S, state)
+    assert env.unwrapped._k == 0
+
+
+@pytest.mark.parametrize("action", [np.array([0.25]), [0.25], 0.25, np.float32(0.25),
+                                    np.array([0.25], dtype=np.float16)])
+def test_every_accepted_action_form_gives_the_same_step(action) -> None:
+    env = gym.make("fricbench/PaperAxis-v0")
+    ref = gym.make("fricbench/PaperAxis-v0")
+    env.reset(seed=0, options={"trajectory": "s_curve"})
+    ref.reset(seed=0, options={"trajectory": "s_curve"})
+    for _ in range(3):
+        np.testing.assert_array_equal(env.step(action)[0],
+                                      ref.step(np.array([0.25], dtype=np.float32))[0])
+
+
+def test_reset_options_must_be_a_dict() -> None:
+    env = gym.make("fricbench/PaperAxis-v0")
+    with pytest.raises(TypeError, match=r"options=\['trajectory'\] \(list\): expected a dict"):
+        env.reset(options=["trajectory"])
+
+
+@pytest.mark.parametrize("make", ["make", "make_vec"])
+@pytest.mark.parametrize("name", ["axis", "task"])
+def test_make_refuses_none_for_the_spec_axis_or_task(make: str, name: str) -> None:
+    """``axis=None`` used to give the default Stribeck axis instead of the spec's LuGre."""
+    kwargs = {"vectorization_mode": "vector_entry_point"} if make == "make_vec" else {}
+    with pytest.raises(TypeError, match=f"{name}=None \\(NoneType\\): expected an? "):
+        getattr(gym, make)("fricbench/LuGreAxis-v0", **kwargs, **{name: None})
+
+
 def test_episode_truncates_at_trajectory_end_and_info_terms() -> None:
     env = gym.make("fricbench/PaperAxis-v0")
     _, info = env.reset(seed=0, options={"trajectory": "s_curve"})

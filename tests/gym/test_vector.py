@@ -91,3 +91,53 @@ def test_observations_are_fresh_arrays() -> None:
     o3, *_ = venv.step(np.zeros((2, 1)))
     assert o2.dtype == np.float32 and o2 is not o3
     assert not np.shares_memory(o2, o3)
+
+
+def test_step_before_reset_is_refused() -> None:
+    venv = _venv(4)
+    with pytest.raises(RuntimeError, match=r"reset\(\) before step\(\)"):
+        venv.step(np.zeros((4, 1)))
+
+
+@pytest.mark.parametrize("actions,error,message", [
+    (np.zeros((2, 2)), ValueError,
+     r"actions has shape \(2, 2\): expected shape \(4, 1\) or \(4,\)"),
+    (np.zeros((4, 1, 1)), ValueError, r"shape \(4, 1, 1\)"),
+    (np.full((4, 1), "0.5"), TypeError, r"actions has dtype <U3"),
+    (np.zeros((4, 1), dtype=complex), TypeError, r"actions has dtype complex128"),
+    ("0.5", TypeError, r"actions='0.5' \(str\)"),
+])
+def test_actions_of_the_wrong_shape_or_kind_are_refused(actions, error, message) -> None:
+    venv = _venv(4)
+    venv.reset(seed=0)
+    state, k = venv._batch.S.copy(), venv._k.copy()
+    with pytest.raises(error, match=message):
+        venv.step(actions)
+    np.testing.assert_array_equal(venv._batch.S, state)
+    np.testing.assert_array_equal(venv._k, k)
+
+
+def test_flat_and_list_actions_step_as_the_action_space_shape() -> None:
+    venvs = [_venv(3) for _ in range(3)]
+    for v in venvs:
+        v.reset(seed=2)
+    for _ in range(5):
+        out = [venvs[0].step(np.full((3, 1), 0.3, dtype=np.float32)),
+               venvs[1].step(np.full(3, 0.3, dtype=np.float32)),
+               venvs[2].step([[0.3]] * 3)]
+    # the list is float64: same clipped action, same float32 value of 0.3 only up to rounding
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_allclose(out[0][0], out[2][0], rtol=1e-6, atol=1e-6)
+
+
+def test_bad_reset_and_constructor_arguments_are_refused() -> None:
+    venv = _venv(2)
+    with pytest.raises(TypeError, match=r"options=\['x'\] \(list\)"):
+        venv.reset(options=["x"])
+    with pytest.raises(TypeError, match="seed='x': expected an integer"):
+        venv.reset(seed="x")  # type: ignore[arg-type]
+    spec = get_spec("fricbench/PaperAxis-v0")
+    with pytest.raises(TypeError, match="num_envs=True"):
+        ServoAxisVectorEnv(num_envs=True, axis=spec.axis, task=spec.task)
+    with pytest.raises(TypeError, match="axis='stribeck': expected an Axis"):
+        ServoAxisVectorEnv(num_envs=2, axis="stribeck", task=spec.task)  # type: ignore[arg-type]
