@@ -17,6 +17,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from fricbench._memory import check_memory
 from fricbench._validation import (
     check_choice,
     check_int,
@@ -29,6 +30,7 @@ from fricbench.friction import make_friction
 from fricbench.trajectories import Reference, make_trajectory
 
 __all__ = [
+    "REFERENCE_BYTES_PER_SAMPLE",
     "ObservationConfig",
     "Randomization",
     "RewardConfig",
@@ -221,8 +223,26 @@ def _cached_reference(id: str, items: tuple[tuple[str, Any], ...], ts: float) ->
     return make_trajectory(id, ts=ts, **dict(items))
 
 
+REFERENCE_BYTES_PER_SAMPLE = 96
+"""Estimated bytes per reference sample while it is generated and held by an env: the
+reference's ``t, x, v, a``, the env's ``x, v, a`` tables and the generator's temporaries."""
+
+
 def reference_for(choice: TrajectoryChoice, ts: float, rng: np.random.Generator) -> Reference:
-    """Generate (or fetch from cache) the reference of ``choice`` sampled at ``ts``."""
+    """Generate (or fetch from cache) the reference of ``choice`` sampled at ``ts``.
+
+    A ``duration`` parameter is checked against the available memory first
+    (:data:`REFERENCE_BYTES_PER_SAMPLE`): ``ValueError`` naming it and the bytes needed.
+    """
+    duration = choice.params.get("duration")
+    if isinstance(duration, (int, float)) and not isinstance(duration, bool) \
+            and math.isfinite(duration) and duration > 0.0 and ts > 0.0:
+        samples = math.ceil(duration / ts) + 1
+        check_memory(f"trajectory {choice.id!r} duration={duration!r} s",
+                     samples * REFERENCE_BYTES_PER_SAMPLE,
+                     f"{samples} samples at ts={ts:g} s, {REFERENCE_BYTES_PER_SAMPLE} B each",
+                     lambda room: f"duration <= {room / REFERENCE_BYTES_PER_SAMPLE * ts:.3g} s "
+                                  "here")
     params = dict(choice.params)
     if choice.seeded:
         params["seed"] = int(rng.integers(0, 2**31 - 1))

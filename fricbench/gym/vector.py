@@ -10,10 +10,13 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from fricbench._memory import check_memory, format_bytes
 from fricbench._validation import check_int
 from fricbench.axis import Axis, AxisBatch
+from fricbench.axis import kernel as K
 from fricbench.axis.batch import SimulationDivergedError
 from fricbench.gym.task import (
+    REFERENCE_BYTES_PER_SAMPLE,
     TaskConfig,
     action_array,
     fill_observation,
@@ -25,7 +28,25 @@ from fricbench.gym.task import (
 )
 from fricbench.gym.vector_step import vector_step
 
-__all__ = ["ServoAxisVectorEnv"]
+__all__ = ["AXIS_OBJECT_BYTES", "ServoAxisVectorEnv", "bytes_per_env"]
+
+
+AXIS_OBJECT_BYTES = 400
+"""Estimated bytes of one :class:`~fricbench.axis.Axis` with its friction model (a sub-env holds
+its own when friction is redrawn per episode)."""
+
+
+def bytes_per_env(n_features: int, randomized: bool) -> int:
+    """Estimated peak bytes per sub-env of :class:`ServoAxisVectorEnv` (within about 30 %).
+
+    The batch's parameter and state rows, status and outputs; the env's indices, observation,
+    kernel scratch; the copies made at reset and the arrays returned by a step; one
+    :class:`~fricbench.axis.Axis` per sub-env when friction is randomised.
+    """
+    batch = 8 * (K.N_PARAMS + K.N_STATE + 1 + 4 + 1)
+    env = 8 * (3 + n_features + 10 + 1) + 1
+    transient = 8 * (K.N_PARAMS + K.N_STATE + 6) + 2 * 4 * n_features + 2
+    return batch + env + transient + (AXIS_OBJECT_BYTES if randomized else 0)
 
 
 class ServoAxisVectorEnv(VectorEnv):
@@ -72,17 +93,34 @@ class ServoAxisVectorEnv(VectorEnv):
         cfg = self.task.observation
         self._offsets = preview_offsets(cfg).astype(np.int64)
         self._scales = obs_scales(cfg)
+        self._nf = n_features(cfg)
+        # refuse what cannot fit before allocating or generating anything
+        per_env = bytes_per_env(self._nf, bool(self.task.randomize.ranges))
+        check_memory(f"num_envs={num_envs}", num_envs * per_env,
+                     f"about {format_bytes(per_env)} per sub-env",
+                     lambda room: f"num_envs <= {room // per_env} here")
         pool_rng = np.random.default_rng(seed)
         refs = []
+        envs = num_envs * per_env
         for choice in self.task.trajectories:
-            for _ in range(reference_pool if choice.seeded else 1):
-                refs.append(reference_for(choice, self.ts, pool_rng))
+            count = reference_pool if choice.seeded else 1
+            refs.append(reference_for(choice, self.ts, pool_rng))
+            if count > 1:  # the seeded choices' references all have the first one's length
+                per_ref = refs[-1].n_samples * REFERENCE_BYTES_PER_SAMPLE
+
+                def pool_fix(room: int, per_ref: int = per_ref) -> str:
+                    return f"reference_pool <= {max(room - envs, 0) // per_ref} here"
+
+                check_memory(f"reference_pool={reference_pool}", count * per_ref + envs,
+                             f"{count} references of {refs[-1].n_samples} samples, "
+                             f"{REFERENCE_BYTES_PER_SAMPLE} B each, besides {num_envs} "
+                             "sub-envs", pool_fix)
+            refs.extend(reference_for(choice, self.ts, pool_rng) for _ in range(count - 1))
         if any(r.n_axes != 1 for r in refs):
             raise ValueError("ServoAxisVectorEnv drives single-axis references only")
         pad = int(self._offsets[-1]) if self._offsets.size else 0
         self._X, self._V, self._A, self._len = stack_references(refs, pad)
         self._names = [r.name for r in refs]
-        self._nf = n_features(cfg)
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (self._nf,), np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
