@@ -58,7 +58,8 @@ class ServoAxisVectorEnv(VectorEnv):
     References come from a pool generated at construction (``reference_pool`` per seeded
     trajectory choice, e.g. ``random``), and each sub-env draws from the pool at reset.
     Observations, actions and rewards are those of the scalar env; autoreset follows
-    Gymnasium's ``NEXT_STEP`` mode.
+    Gymnasium's ``NEXT_STEP`` mode. Actions have shape ``(num_envs, 1)`` (or ``(num_envs,)``)
+    and are real numbers; ``step`` before ``reset`` raises ``RuntimeError``.
 
     Parameters
     ----------
@@ -70,6 +71,13 @@ class ServoAxisVectorEnv(VectorEnv):
         References generated per seeded trajectory choice.
     seed : int
         Seed of the reference pool.
+
+    Raises
+    ------
+    ValueError
+        Also when ``num_envs`` or ``reference_pool`` would need more memory than is available
+        (:func:`bytes_per_env`, :data:`~fricbench.gym.task.REFERENCE_BYTES_PER_SAMPLE`), before
+        anything is allocated.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
