@@ -228,11 +228,16 @@ REFERENCE_BYTES_PER_SAMPLE = 96
 reference's ``t, x, v, a``, the env's ``x, v, a`` tables and the generator's temporaries."""
 
 
+MAX_EPISODE_SAMPLES = 1_000_000
+"""Longest reference of one episode, samples (1000 s at 1 kHz), as for an env spec's set."""
+
+
 def reference_for(choice: TrajectoryChoice, ts: float, rng: np.random.Generator) -> Reference:
     """Generate (or fetch from cache) the reference of ``choice`` sampled at ``ts``.
 
-    A ``duration`` parameter is checked against the available memory first
-    (:data:`REFERENCE_BYTES_PER_SAMPLE`): ``ValueError`` naming it and the bytes needed.
+    A ``duration`` parameter is checked first: at most :data:`MAX_EPISODE_SAMPLES` samples,
+    and within the available memory (:data:`REFERENCE_BYTES_PER_SAMPLE`); ``ValueError``
+    naming it and the figure.
     """
     duration = choice.params.get("duration")
     if isinstance(duration, (int, float)) and not isinstance(duration, bool) \
@@ -243,6 +248,11 @@ def reference_for(choice: TrajectoryChoice, ts: float, rng: np.random.Generator)
                      f"{samples} samples at ts={ts:g} s, {REFERENCE_BYTES_PER_SAMPLE} B each",
                      lambda room: f"duration <= {room / REFERENCE_BYTES_PER_SAMPLE * ts:.3g} s "
                                   "here")
+        if samples > MAX_EPISODE_SAMPLES:
+            # the trajectory generators slow down far more than linearly on very long runs
+            raise ValueError(f"trajectory {choice.id!r} duration={duration!r} s: {samples} "
+                             f"samples at ts={ts:g} s; expected at most {MAX_EPISODE_SAMPLES} "
+                             f"({MAX_EPISODE_SAMPLES * ts:g} s: MAX_EPISODE_SAMPLES) per episode")
     params = dict(choice.params)
     if choice.seeded:
         params["seed"] = int(rng.integers(0, 2**31 - 1))
