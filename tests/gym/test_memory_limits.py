@@ -72,12 +72,6 @@ def test_estimate_covers_the_arrays_of_a_small_vector_env() -> None:
 def test_reset_refuses_an_episode_longer_than_the_cap() -> None:
     """A reference over the cap is refused at once, even where it fits in memory (the generators
     slow down far more than linearly: a 1e5 s one would take hours)."""
-    import time
-
-    import gymnasium as gym
-
-    import fricbench  # noqa: F401
-
     env = gym.make("fricbench/PaperAxis-v0")
     t0 = time.perf_counter()
     with pytest.raises(ValueError, match="duration=2000.0 s.*MAX_EPISODE_SAMPLES"):
