@@ -49,6 +49,10 @@ def bytes_per_env(n_features: int, randomized: bool) -> int:
     return batch + env + transient + (AXIS_OBJECT_BYTES if randomized else 0)
 
 
+MAX_NUM_ENVS = 2**20
+"""Most sub-envs of one vector env (about 1.6 GB)."""
+
+
 class ServoAxisVectorEnv(VectorEnv):
     """A native vector version of :class:`~fricbench.gym.env.ServoAxisEnv` (single axis).
 
@@ -64,7 +68,7 @@ class ServoAxisVectorEnv(VectorEnv):
     Parameters
     ----------
     num_envs : int
-        Number of sub-envs.
+        Number of sub-envs, at most :data:`MAX_NUM_ENVS`.
     axis : Axis
     task : TaskConfig
     reference_pool : int
@@ -107,6 +111,11 @@ class ServoAxisVectorEnv(VectorEnv):
         check_memory(f"num_envs={num_envs}", num_envs * per_env,
                      f"about {format_bytes(per_env)} per sub-env",
                      lambda room: f"num_envs <= {room // per_env} here")
+        if num_envs > MAX_NUM_ENVS:
+            # beyond it the construction's temporaries outgrow the estimate, and a 2-core
+            # machine steps a million envs at a few steps per second
+            raise ValueError(f"num_envs={num_envs}: expected at most {MAX_NUM_ENVS} "
+                             "(MAX_NUM_ENVS); run several vector envs for more")
         pool_rng = np.random.default_rng(seed)
         refs = []
         envs = num_envs * per_env

@@ -77,3 +77,15 @@ def test_reset_refuses_an_episode_longer_than_the_cap() -> None:
     with pytest.raises(ValueError, match="duration=2000.0 s.*MAX_EPISODE_SAMPLES"):
         env.reset(seed=0, options={"trajectory": {"id": "random", "duration": 2000.0}})
     assert time.perf_counter() - t0 < 5.0
+
+
+def test_num_envs_beyond_the_cap_is_refused_at_once() -> None:
+    from fricbench.gym.vector import MAX_NUM_ENVS
+
+    t0 = time.perf_counter()
+    # refused by the cap, or first by the memory check on a smaller machine
+    with pytest.raises(ValueError, match=r"num_envs=10000000: (expected at most "
+                                         r"1048576 \(MAX_NUM_ENVS\)|needs about)"):
+        gym.make_vec("fricbench/PaperAxis-v0", num_envs=10**7,
+                     vectorization_mode="vector_entry_point")
+    assert time.perf_counter() - t0 < 5.0 and MAX_NUM_ENVS >= 4096
