@@ -8,16 +8,18 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.metadata
 import json
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from fricbench.bench.runner import EpisodeRecord
+    from fricbench.registry import Registry
 
 __all__ = ["main"]
 
@@ -26,22 +28,62 @@ _PLUGGED = ("fricbench.predictors.command", "fricbench.compensators.command",
             "fricbench.sysid.diagnose.command")
 
 
+def _first_paragraph(doc: str | None) -> str:
+    """The first paragraph of a docstring on one line, without reST double backquotes."""
+    para = (doc or "").strip().split("\n\n")[0]
+    return " ".join(para.split()).replace("``", "")
+
+
+def _package_of(obj: object) -> str:
+    """The distribution that provides ``obj`` (an entry-point string or a callable)."""
+    module = obj.split(":")[0] if isinstance(obj, str) else getattr(obj, "__module__", "")
+    top = (module or "").split(".")[0]
+    if top == "fricbench" or not top:
+        return "fricbench"
+    return importlib.metadata.packages_distributions().get(top, [top])[0]
+
+
+def _registry_rows(registry: Registry[Any]) -> list[tuple[str, str, str]]:
+    """``(id, package, description)`` of every registered id; an empty description is the
+    first paragraph of the factory's docstring."""
+    rows = []
+    for i in registry.ids():
+        entry = registry.spec(i)
+        desc = entry.description or _first_paragraph(entry.load().__doc__)
+        rows.append((i, _package_of(entry.entry_point), desc.replace("``", "")))
+    return rows
+
+
+def _env_rows() -> list[tuple[str, str, str]]:
+    """``(id, source, description)`` of every env: ``fricbench`` or the user's spec file."""
+    from fricbench.gym import env_ids, get_spec
+    from fricbench.gym.specs import _shipped_files
+
+    shipped = {str(f) for f in _shipped_files()}
+    rows = []
+    for i in env_ids():
+        spec = get_spec(i)
+        rows.append((i, "fricbench" if spec.path in shipped else spec.path, spec.description))
+    return rows
+
+
 def _cmd_list(args: argparse.Namespace) -> int:
     from fricbench.compensators import compensator_registry
     from fricbench.friction import friction_registry
-    from fricbench.gym import env_ids
     from fricbench.predictors import predictor_registry
     from fricbench.trajectories import trajectory_registry
 
-    sections = [("friction models", friction_registry.ids()),
-                ("trajectories", trajectory_registry.ids()),
-                ("environments", env_ids()),
-                ("predictors", predictor_registry.ids()),
-                ("compensators", compensator_registry.ids())]
-    for title, ids in sections:
+    sections = [("friction models", _registry_rows(friction_registry)),
+                ("trajectories", _registry_rows(trajectory_registry)),
+                ("environments", _env_rows()),
+                ("predictors", _registry_rows(predictor_registry)),
+                ("compensators", _registry_rows(compensator_registry))]
+    for title, rows in sections:
         print(f"{title}:")
-        for i in ids:
-            print(f"  {i}")
+        width = max((len(i) for i, _, _ in rows), default=0)
+        pkg_width = max((len(p) for _, p, _ in rows), default=0)
+        for i, package, desc in rows:
+            print(f"  {i:<{width}}  {package:<{pkg_width}}  {desc}".rstrip())
     if not args.check:
         return 0
     from fricbench.gym import check_specs, spec_files
@@ -224,27 +266,63 @@ def _print_act_times(records: list[EpisodeRecord], out: str) -> None:
               f"{med}")
 
 
+def _version() -> str:
+    """The installed distribution's version (``fricbench.__version__`` when not installed)."""
+    try:
+        return importlib.metadata.version("fricbench")
+    except importlib.metadata.PackageNotFoundError:
+        from fricbench import __version__
+
+        return __version__
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
-    parser = argparse.ArgumentParser(prog="fricbench", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="fricbench",
+        description="Servo-friction compensation benchmark: simulate CNC feed axes with "
+                    "friction, compare compensators, train RL policies, diagnose measured runs.",
+        epilog="Run 'fricbench <command> --help' for the options of a command.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("list", help="everything registered")
+    p = sub.add_parser(
+        "list", help="list the available models, trajectories, envs, predictors, compensators",
+        description="List every friction model, trajectory, environment, predictor and "
+                    "compensator id with its description and the package it comes from.")
     p.add_argument("--check", action="store_true",
                    help="also validate every env spec file (shipped and FRICBENCH_ENV_PATH); "
                         "report each problem and exit 1 if there is one")
     p.set_defaults(func=_cmd_list)
 
-    p = sub.add_parser("simulate", help="simulate an env's axis on a trajectory")
-    p.add_argument("--env", default="fricbench/PaperAxis-v0")
-    p.add_argument("--trajectory", default="m_serial")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--csv", help="write t,x_ref,x,u (s, m, m, N)")
-    p.add_argument("--plot", help="write a PNG of reference, position and error")
+    from fricbench.gym import env_ids
+    from fricbench.trajectories import trajectory_registry
+
+    p = sub.add_parser(
+        "simulate", help="simulate an env's axis on a trajectory, without compensation",
+        description="Simulate the axis of an environment following a reference trajectory "
+                    "(no compensation) and print the tracking error.")
+    p.add_argument("--env", default="fricbench/PaperAxis-v0",
+                   help=f"environment id, one of: {', '.join(env_ids())} "
+                        "(default: %(default)s)")
+    p.add_argument("--trajectory", default="m_serial",
+                   help=f"trajectory id, one of: {', '.join(trajectory_registry.ids())} "
+                        "(circle needs a 2-axis env; default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the measurement noise, where the env has any "
+                        "(default: %(default)s)")
+    p.add_argument("--csv", metavar="FILE.csv",
+                   help="write the run as columns t, x_ref, x, u (s, m, m, N)")
+    p.add_argument("--plot", metavar="FILE.png",
+                   help="write a PNG of reference, position and error")
     p.set_defaults(func=_cmd_simulate)
 
-    p = sub.add_parser("perf", help="throughput benchmark against in-run references")
-    p.add_argument("--json", help="write the figures to this JSON file")
+    p = sub.add_parser(
+        "perf", help="measure simulation speed on this machine",
+        description="Measure simulation speed (steps or samples per second) of the env, the "
+                    "vector env and simulate, beside Gymnasium's Pendulum-v1 and "
+                    "python-control measured in the same run for comparison.")
+    p.add_argument("--json", metavar="FILE.json", help="write the figures to this JSON file")
     p.add_argument("--quick", action="store_true", help="shorter runs (noisier)")
     p.set_defaults(func=_cmd_perf)
 
@@ -258,11 +336,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--envs", nargs="+", help="env ids (default: every benchmark env)")
     p.add_argument("--compensators", nargs="+", help="compensator ids (default: all)")
     p.add_argument("--trajectories", nargs="+", help="override each env's trajectory set")
-    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    p.add_argument("--backend", choices=("joblib", "ray"), default="joblib")
+    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2],
+                   help="seeds, each a separate run (default: 0 1 2)")
+    p.add_argument("--backend", choices=("joblib", "ray"), default="joblib",
+                   help="run in local processes (joblib) or on a Ray cluster "
+                        "(default: %(default)s)")
     p.add_argument("--address", help="Ray cluster address (default: a local instance)")
-    p.add_argument("--jobs", type=int, default=2, help="joblib workers")
-    p.add_argument("--out", default="leaderboards")
+    p.add_argument("--jobs", type=int, default=2,
+                   help="parallel processes with --backend joblib (default: %(default)s)")
+    p.add_argument("--out", default="leaderboards", metavar="DIR",
+                   help="folder of the leaderboard tables and plots (default: %(default)s)")
     p.set_defaults(func=_cmd_bench)
 
     for name in _PLUGGED:

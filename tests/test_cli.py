@@ -1,9 +1,13 @@
-"""The command line: list, simulate, perf keys, bench files, clear errors and exit codes."""
+"""The command line: version, list, help texts, simulate, perf keys, bench files, clear errors
+and exit codes."""
 
 from __future__ import annotations
 
+import argparse
 import csv
+import importlib.metadata
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import ClassVar
@@ -12,15 +16,76 @@ import numpy as np
 import pytest
 
 from fricbench.bench import runner
-from fricbench.cli import main
+from fricbench.cli import build_parser, main
 from fricbench.compensators import Compensator, compensator_registry
+from fricbench.gym import env_ids
+from fricbench.predictors import predictor_registry
+from fricbench.trajectories import trajectory_registry
 
 
-def test_list(capsys: pytest.CaptureFixture[str]) -> None:
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"fricbench {importlib.metadata.version('fricbench')}\n"
+
+
+@pytest.fixture
+def plugin_predictor() -> Iterator[None]:
+    # as a plug-in distribution would register it: no description, a factory from another
+    # distribution (scipy), so the docstring and the distribution's name are listed
+    predictor_registry.register("test-plugin", "scipy.signal:StateSpace")
+    yield
+    predictor_registry.unregister("test-plugin")
+
+
+def test_list(capsys: pytest.CaptureFixture[str], plugin_predictor: None) -> None:
     assert main(["list"]) == 0
-    out = capsys.readouterr().out
-    for word in ("stribeck", "m_serial", "fricbench/PaperAxis-v0", "kalman"):
-        assert word in out
+    lines = capsys.readouterr().out.splitlines()
+
+    def row(id: str) -> list[str]:
+        (line,) = [ln for ln in lines if ln.split()[:1] == [id]]
+        return line.split(maxsplit=2)
+
+    # id, the package it comes from, its one-line description (registered, or the docstring's)
+    assert row("stribeck") == ["stribeck", "fricbench",
+                               "Stribeck friction (the paper's eq. 8) with an optional viscous "
+                               "term."]
+    assert row("kalman") == ["kalman", "fricbench",
+                             "Kalman disturbance observer, estimate fed back as force"]
+    assert row("m_serial")[1:] == ["fricbench", "The paper's \"M-serial\" linear test: letters M "
+                                                "drawn one after another on one axis."]
+    assert row("fricbench/PaperAxis-v0")[1:] == [
+        "fricbench", "Paper-calibrated CNC feed axis with Stribeck friction; force compensation."]
+    assert row("test-plugin") == ["test-plugin", "scipy",
+                                  "Linear Time Invariant system in state-space form."]
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return dict(sub.choices)
+
+
+def test_help_texts_speak_to_users() -> None:
+    parser = build_parser()
+    commands = _subparsers(parser)
+    assert set(commands) >= {"list", "simulate", "perf", "bench", "reproduce", "train",
+                             "diagnose"}
+    for name, sub in [("fricbench", parser), *commands.items()]:
+        for action in sub._actions:
+            if not isinstance(action, argparse._SubParsersAction):
+                assert action.help, f"{name} {action.option_strings or action.dest}: no help"
+        text = sub.format_help()
+        # no developer talk: module names, glue, issue numbers
+        assert not re.search(r"fricbench\.\w|glue|issue|parses arguments", text), (name, text)
+
+
+def test_simulate_help_lists_valid_values(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    out = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    for id in [*env_ids(), *trajectory_registry.ids()]:
+        assert id in out
 
 
 def test_simulate_writes_csv_and_plot(tmp_path: Path) -> None:

@@ -21,7 +21,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("compensator", choices=sorted(ALGOS), help="compensator id")
     p.add_argument("--env", default="fricbench/RandomFriction-v0", help="training env id")
     p.add_argument("--steps", type=int, default=200_000, help="environment steps")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the agent, the env resets and the training references "
+                        "(default: %(default)s)")
     p.add_argument("--out", default=None,
                    help="output stem, e.g. fricbench/policies/rl-sac (default: that)")
     p.add_argument("--verbose", type=int, default=0, help="stable-baselines3 verbosity")

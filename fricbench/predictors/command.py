@@ -1,4 +1,4 @@
-"""CLI glue for ``fricbench reproduce [--json OUT.json] [--plots DIR]``.
+"""The ``fricbench reproduce [--json OUT.json] [--plots DIR]`` subcommand.
 
 ``fricbench.cli`` calls :func:`add_parser` on its sub-parsers and :func:`run` with the parsed
 arguments; :func:`main` runs the command on its own (``python -m fricbench.predictors.command``).
@@ -15,9 +15,9 @@ __all__ = ["add_parser", "run", "main"]
 
 _DESCRIPTION = (
     "Reproduce Wang & Zhang (2023) on the default axis: simulate M-serial and curve runs, "
-    "identify the transfer function and v_break, extract the friction error, train TF+LSTM "
-    "and the other registered predictors, predict held-out runs, pre-compensate, and print "
-    "our numbers beside the paper's."
+    "identify the transfer function and the break velocity, extract the friction error, train "
+    "TF+LSTM and the other registered predictors, predict held-out runs, pre-compensate, and "
+    "print our numbers beside the paper's."
 )
 
 
@@ -32,12 +32,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT.json", default=None,
-                   help="write the JSON summary to this file (written atomically)")
+                   help="write the JSON summary to this file")
     p.add_argument("--plots", metavar="DIR", default=None,
                    help="draw the counterparts of the paper's Figures 11-18 into DIR")
-    p.add_argument("--max-epochs", type=int, default=None,
-                   help="override the epoch budget of the neural predictors (smoke runs)")
-    p.add_argument("--predictors", default=None,
+    p.add_argument("--max-epochs", type=int, default=None, metavar="N",
+                   help="train the neural predictors for at most N epochs (a quick, less "
+                        "accurate run)")
+    p.add_argument("--predictors", default=None, metavar="ID,ID,...",
                    help="comma-separated predictor ids to compare (tf and tf+lstm are always "
                         "included)")
     p.add_argument("--quiet", action="store_true", help="do not print training progress")

@@ -60,8 +60,8 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     tune.add_argument("--decimate", type=int, default=None,
                       help="decimation of the inverse dynamics (default: 10)")
     tune.add_argument("--tf", action="store_true",
-                      help="also fit the black-box transfer function (fricbench.sysid.tf_fit) "
-                           "and report its position error (slow on long runs)")
+                      help="also fit a black-box transfer function and report its position "
+                           "error, for comparison (slow on long runs)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     return parser
 
