@@ -17,15 +17,22 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "train", help="train an RL compensator's policy (weights + JSON)",
         description="Train a stable-baselines3 agent on a training env and write the "
-                    "deterministic actor as <out>.pt (weights) + <out>.json (spec, command).")
+                    "deterministic actor as <out>.pt (weights) + <out>.json (spec, command). "
+                    "Existing files are never replaced without --force (exit 2, checked "
+                    "before training).")
     p.add_argument("compensator", choices=sorted(ALGOS), help="compensator id")
-    p.add_argument("--env", default="fricbench/RandomFriction-v0", help="training env id")
-    p.add_argument("--steps", type=int, default=200_000, help="environment steps")
+    p.add_argument("--env", default="fricbench/RandomFriction-v0",
+                   help="training env id (default: %(default)s)")
+    p.add_argument("--steps", type=int, default=200_000,
+                   help="environment steps (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the agent, the env resets and the training references "
                         "(default: %(default)s)")
-    p.add_argument("--out", default=None,
-                   help="output stem, e.g. fricbench/policies/rl-sac (default: that)")
+    p.add_argument("--out", default=None, metavar="STEM",
+                   help="write STEM.json and STEM.pt (default: policies/<id>-seed<seed> in "
+                        "the current directory)")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite existing policy files at --out")
     p.add_argument("--verbose", type=int, default=0, help="stable-baselines3 verbosity")
     p.set_defaults(func=run)
     return p
@@ -33,13 +40,19 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fricbench train`` with parsed ``args``; print where the policy went."""
-    from fricbench.compensators.train import train_agent
+    from fricbench.compensators.train import default_out, train_agent
 
-    out = args.out or f"fricbench/policies/{args.compensator}"
+    out = args.out or str(default_out(args.compensator, args.seed))
     argv = ["fricbench", "train", args.compensator, "--env", args.env, "--steps",
             str(args.steps), "--seed", str(args.seed), "--out", str(out)]
-    res = train_agent(args.compensator, env_id=args.env, steps=args.steps, seed=args.seed,
-                      out=out, command=shlex.join(argv), verbose=args.verbose)
+    try:
+        res = train_agent(args.compensator, env_id=args.env, steps=args.steps, seed=args.seed,
+                          out=out, command=shlex.join(argv), verbose=args.verbose,
+                          overwrite=args.force)
+    except FileExistsError as exc:
+        print(f"fricbench train: error: {exc.filename} exists; pass --force to overwrite it, "
+              "or --out to write elsewhere", file=sys.stderr)
+        return 2
     val = res.validation
     print(f"wrote {res.json_path} and {res.weights_path} ({res.seconds:.0f} s training); "
           f"validation on fresh training references: max |e| {val['policy_max_um']:.2f} um "

@@ -13,6 +13,7 @@ and library versions, a run reproduces the shipped weights bit for bit on the sa
 
 from __future__ import annotations
 
+import errno
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -35,7 +36,7 @@ from fricbench.compensators.training_data import env_setup, training_references
 from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.task import Randomization, n_features
 
-__all__ = ["ALGOS", "HYPERPARAMS", "TrainResult", "train_agent", "export_actor",
+__all__ = ["ALGOS", "HYPERPARAMS", "TrainResult", "default_out", "train_agent", "export_actor",
            "validation_score"]
 
 #: compensator id -> stable-baselines3 algorithm
@@ -72,6 +73,12 @@ class TrainResult:
     weights_path: Path
     seconds: float
     validation: Mapping[str, float]
+
+
+def default_out(comp_id: str, seed: int) -> Path:
+    """Where a policy goes without ``out``: ``policies/<comp_id>-seed<seed>`` in the current
+    directory (never the shipped ``fricbench/policies``)."""
+    return Path("policies") / f"{comp_id}-seed{seed}"
 
 
 def _out_paths(out: str | Path, comp_id: str) -> tuple[Path, str]:
@@ -156,9 +163,9 @@ def _versions() -> dict[str, str]:
 
 
 def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
-                steps: int = 200_000, seed: int = 0, out: str | Path = "fricbench/policies",
+                steps: int = 200_000, seed: int = 0, out: str | Path | None = None,
                 command: str = "", overrides: Mapping[str, Any] | None = None,
-                verbose: int = 0) -> TrainResult:
+                verbose: int = 0, overwrite: bool = False) -> TrainResult:
     """Train ``comp_id``'s agent on ``env_id`` and write the policy files.
 
     Parameters
@@ -171,19 +178,33 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
         Environment steps (summed over the parallel envs).
     seed : int
         Seed of the agent, the env resets and the training references.
-    out : str or Path
-        Output stem (``.../rl-sac`` -> ``rl-sac.json`` + ``rl-sac.pt``) or a folder.
+    out : str or Path, optional
+        Output stem (``.../rl-sac`` -> ``rl-sac.json`` + ``rl-sac.pt``) or a folder; default
+        :func:`default_out`.
     command : str
         The command line to record (default: the equivalent ``fricbench train`` call).
     overrides : mapping, optional
         Hyperparameters replacing :data:`HYPERPARAMS` entries.
     verbose : int
         stable-baselines3 verbosity.
+    overwrite : bool
+        Replace existing policy files; without it an existing file is an error, raised before
+        any training.
+
+    Raises
+    ------
+    FileExistsError
+        Naming the file, when ``out`` names an existing policy file and not ``overwrite``.
     """
     check_choice("comp_id", comp_id, tuple(ALGOS))
     check_int("steps", steps, 1, 100_000_000)
     check_int("seed", seed, 0)
     algo = ALGOS[comp_id]
+    json_path, weights_name = _out_paths(default_out(comp_id, seed) if out is None else out,
+                                         comp_id)
+    for path in (json_path, json_path.parent / weights_name):
+        if path.exists() and not overwrite:
+            raise FileExistsError(errno.EEXIST, "policy file exists; not overwritten", str(path))
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.env_util import make_vec_env
 
@@ -208,7 +229,6 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     # the exported actor must reproduce stable-baselines3's deterministic action
     probe = np.random.default_rng(seed).standard_normal((64, obs_dim)).astype(np.float32)
     sb3_action, _ = model.predict(probe, deterministic=True)
-    json_path, weights_name = _out_paths(out, comp_id)
     cmd = command or (f"fricbench train {comp_id} --env {env_id} --steps {steps} "
                       f"--seed {seed} --out {json_path.with_suffix('')}")
     spec = PolicySpec(

@@ -1,14 +1,20 @@
-"""fricbench train: a tiny run writes a loadable policy that records its command."""
+"""fricbench train: a tiny run writes a loadable policy that records its command; the default
+output is a new file in the current directory and nothing is overwritten without --force."""
 
 from __future__ import annotations
 
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
-from fricbench.compensators import make_compensator
+import pytest
+import stable_baselines3.common.env_util
+
+from fricbench.cli import main
+from fricbench.compensators import make_compensator, train
 from fricbench.compensators.command import add_parser
-from fricbench.compensators.train import train_agent
+from fricbench.compensators.train import TrainResult, train_agent
 
 
 def test_tiny_ppo_run(tmp_path: Path) -> None:
@@ -27,3 +33,60 @@ def test_cli_parser() -> None:
     args = parser.parse_args(["train", "rl-sac", "--steps", "10", "--seed", "3"])
     assert args.compensator == "rl-sac" and args.steps == 10 and args.seed == 3
     assert args.env == "fricbench/RandomFriction-v0"
+
+
+class _Trained(Exception):
+    """Raised instead of training: the command got past its checks."""
+
+
+@pytest.fixture
+def no_training(monkeypatch: pytest.MonkeyPatch) -> None:
+    def make_vec_env(*args: object, **kwargs: object) -> None:
+        raise _Trained
+
+    monkeypatch.setattr(stable_baselines3.common.env_util, "make_vec_env", make_vec_env)
+
+
+@pytest.mark.parametrize("existing", [".json", ".pt"])
+def test_cli_refuses_to_overwrite(existing: str, tmp_path: Path, no_training: None,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / f"mine{existing}"
+    path.write_text("shipped")
+    assert main(["train", "rl-sac", "--out", str(tmp_path / "mine")]) == 2
+    err = capsys.readouterr().err
+    assert f"fricbench train: error: {path} exists; pass --force" in err
+    assert path.read_text() == "shipped"
+
+
+def test_cli_force_overwrites(tmp_path: Path, no_training: None) -> None:
+    (tmp_path / "mine.json").write_text("shipped")
+    with pytest.raises(_Trained):  # past the check, into training
+        main(["train", "rl-sac", "--out", str(tmp_path / "mine"), "--force"])
+
+
+def test_cli_default_out_is_new_in_current_directory(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    shipped = tmp_path / "fricbench" / "policies" / "rl-sac.json"  # run from the checkout
+    shipped.parent.mkdir(parents=True)
+    shipped.write_text("shipped")
+    monkeypatch.chdir(tmp_path)
+    calls: list[dict[str, Any]] = []
+
+    def fake_train(comp_id: str, **kwargs: Any) -> TrainResult:
+        calls.append(kwargs)
+        return TrainResult(Path("x.json"), Path("x.pt"), 0.0,
+                           {"policy_max_um": 1.0, "none_max_um": 2.0, "improvement_pct": 50.0})
+
+    monkeypatch.setattr(train, "train_agent", fake_train)
+    assert main(["train", "rl-sac", "--seed", "3"]) == 0
+    (kwargs,) = calls
+    assert Path(kwargs["out"]) == Path("policies/rl-sac-seed3")
+    assert kwargs["command"].endswith("--seed 3 --out policies/rl-sac-seed3")
+    assert shipped.read_text() == "shipped"
+
+
+def test_train_agent_raises_before_training(tmp_path: Path, no_training: None) -> None:
+    (tmp_path / "rl-ppo.pt").write_text("shipped")
+    with pytest.raises(FileExistsError) as exc:
+        train_agent("rl-ppo", steps=256, out=tmp_path)  # a folder: <folder>/rl-ppo.*
+    assert exc.value.filename == str(tmp_path / "rl-ppo.pt")
