@@ -4,7 +4,10 @@ A run file is a CSV with a one-line header and one row per uniformly spaced samp
 reference position (m), measured position (m) and, optionally, the actuator effort (force in N,
 or a current or voltage: any consistent unit). ``fricbench simulate`` writes this format; the
 EMPS files of ``data/emps`` use other column names, chosen with the keyword arguments of
-:func:`load_run`.
+:func:`load_run`. Logs as they come are read too: columns chosen by name or by 0-based index,
+``,``, ``;`` or tab separators (a decimal comma is refused: numbers must use the C-locale
+point), no time column (a given sample time), positions in mm, um, rad or deg (converted to
+m or rad on reading, see :mod:`fricbench.sysid.units`).
 
 Every problem with the file raises :class:`DataError` with a message that says what is wrong
 and where (line and column); problems that still allow an analysis become warnings on the
@@ -13,7 +16,8 @@ returned :class:`RunData`. The file is only ever read, line by line and within f
 is refused early; a pipe (FIFO, ``/dev/stdin``) is read the same way as a file. A quoted cell
 must end on its own line.
 
-Times and positions must be on the scale of a servo axis in s and m (:data:`SAMPLE_TIME_RANGE`,
+Times and positions (after conversion to SI: m, or rad for a rotary axis) must be on the
+scale of a servo axis (:data:`SAMPLE_TIME_RANGE`,
 :data:`POSITION_LIMIT`, :data:`MIN_STROKE`) and the effort within :data:`EFFORT_RANGE`; anything
 else is refused before a fit, with the column, the value and the expected range.
 """
@@ -23,6 +27,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 import stat
 from array import array
 from collections.abc import Callable, Iterator
@@ -31,6 +36,7 @@ from typing import BinaryIO
 import numpy as np
 
 from fricbench.run import Run
+from fricbench.sysid.units import position_unit as _position_unit
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
            "TIME_JITTER_TOLERANCE", "MAX_FILE_BYTES", "MAX_ROWS", "MAX_LINE_BYTES",
@@ -68,6 +74,7 @@ outside it, or constant, is degenerate: refused when required, else dropped with
 
 _MM_SUSPECT_RANGE = 2.0  # m: a feed-axis stroke longer than this is more likely in mm
 _CONSTANT_REL = 1e-9  # a column varying by less than this share of its magnitude is constant
+_DECIMAL_COMMA = re.compile(r"^[-+]?\d+,\d+([eE][-+]?\d+)?$")
 
 
 class DataError(ValueError):
@@ -127,13 +134,14 @@ def _effort_problem(u: np.ndarray, name: str | None, where: Callable[[int], str]
 def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarray | None = None,
                     *, source: str = "<arrays>", names: dict[str, str | None] | None = None,
                     line_numbers: np.ndarray | None = None,
-                    effort_required: bool = True) -> RunData:
+                    effort_required: bool = True, position_unit: str = "m") -> RunData:
     """Check arrays of one run and wrap them in a :class:`RunData`.
 
     Parameters
     ----------
     t, x_ref, x : array_like, shape (K,)
-        Time (s), reference position (m), measured position (m).
+        Time (s), reference position and measured position, in SI: m, or rad when
+        ``position_unit`` is rotary.
     u : array_like, shape (K,), optional
         Effort.
     source : str
@@ -145,6 +153,11 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     effort_required : bool
         A degenerate effort (constant, or its magnitude outside :data:`EFFORT_RANGE`) raises;
         when False it is dropped with a warning and the run has no effort.
+    position_unit : str
+        The unit the positions were logged in (``m``, ``mm``, ``um``, ``rad``, ``deg``); the
+        arrays are already converted to its SI unit. It is recorded in ``RunData.units``
+        (``"position"``: the SI unit, ``"position_logged"``: this one); a rotary unit turns off
+        the "looks like millimetres" warning.
 
     Returns
     -------
@@ -158,6 +171,8 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         :data:`MIN_STROKE`), the measured position equal to the reference, a degenerate
         effort that is required.
     """
+    unit = _position_unit(position_unit)
+    si = unit.si
     if names is None:
         names = {"t": "t", "x_ref": "x_ref", "x": "x"}
         if u is not None:
@@ -219,8 +234,9 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         i = int(np.argmax(np.abs(arr)))
         if abs(arr[i]) > POSITION_LIMIT:
             raise DataError(f"{source}: {where(i)}, column {names[key]!r}: position {arr[i]:.6g} "
-                            f"is outside +-{POSITION_LIMIT:g} m, the positions a servo axis can "
-                            "have in metres; is the column in metres?")
+                            f"is outside +-{POSITION_LIMIT:g} {si} (after conversion from "
+                            f"{unit.name}), the positions a servo axis can have; is the column "
+                            f"in {unit.name} (--position-unit)?")
     warnings: list[str] = []
     # positions within +-POSITION_LIMIT: spans and differences cannot overflow
     span_ref = float(np.ptp(xr))
@@ -230,24 +246,25 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                         "no analysis is possible (neither the loop dynamics nor any effect "
                         "can be identified)")
     if span_ref < MIN_STROKE:
-        raise DataError(f"{source}: column {names['x_ref']!r} moves by {span_ref:.3g} m, less "
-                        f"than the {MIN_STROKE:g} m a diagnosis needs (ten steps of a 1 nm "
-                        "encoder): no resolvable motion; is the column in metres?")
+        raise DataError(f"{source}: column {names['x_ref']!r} moves by {span_ref:.3g} {si}, "
+                        f"less than the {MIN_STROKE:g} {si} a diagnosis needs (ten steps of a "
+                        f"1 nm encoder): no resolvable motion; is the column in {unit.name} "
+                        "(--position-unit)?")
     if span_x <= 0.0:
         raise DataError(f"{source}: column {names['x']!r} is constant while the reference moves "
                         f"by {span_ref:.6g}: the measured position did not follow; check the "
                         "column choice")
     if span_x < MIN_STROKE:
-        raise DataError(f"{source}: column {names['x']!r} moves by {span_x:.3g} m while the "
-                        f"reference moves by {span_ref:.6g} m: less than the {MIN_STROKE:g} m "
-                        "a diagnosis needs (ten steps of a 1 nm encoder); check the column "
-                        "choice and unit")
+        raise DataError(f"{source}: column {names['x']!r} moves by {span_x:.3g} {si} while "
+                        f"the reference moves by {span_ref:.6g} {si}: less than the "
+                        f"{MIN_STROKE:g} {si} a diagnosis needs (ten steps of a 1 nm encoder); "
+                        "check the column choice and unit")
     peak = max(float(np.max(np.abs(xr))), float(np.max(np.abs(xm))))
     gap = float(np.max(np.abs(xr - xm)))
     if gap <= _CONSTANT_REL * peak:
         raise DataError(f"{source}: the reference {names['x_ref']!r} and the measured position "
                         f"{names['x']!r} are equal at every sample (largest difference "
-                        f"{gap:.3g} m): there is no tracking error to explain; the reference "
+                        f"{gap:.3g} {si}): there is no tracking error to explain; the reference "
                         "is the commanded position (--reference), the measurement the "
                         "sensor's (--position)")
     uu = clean.get("u")
@@ -261,11 +278,11 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                             "positions only")
             uu = None
             names.pop("u", None)
-    if max(span_ref, span_x, float(np.max(np.abs(xr)))) > _MM_SUSPECT_RANGE:
+    if not unit.rotary and max(span_ref, span_x, float(np.max(np.abs(xr)))) > _MM_SUSPECT_RANGE:
         warnings.append(
-            f"positions span {span_ref:.6g} (reference) and {span_x:.6g} (measured): these look "
-            "like millimetres or encoder counts, not metres; the reported parameters assume "
-            "metres (convert the columns if they are not)"
+            f"positions span {span_ref:.6g} (reference) and {span_x:.6g} (measured) m: these "
+            "look like millimetres or encoder counts, not metres; the reported parameters "
+            "assume metres (give --position-unit mm, um, rad or deg if they are not)"
         )
     err_rms = float(np.sqrt(np.mean((xr - xm) ** 2)))
     if err_rms > 0.2 * span_ref:
@@ -282,7 +299,9 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
             "stribeck_friction, asymmetric_friction and backlash are not tried"
         )
     return RunData(t=tt, x_ref=xr, x=xm, u=uu, ts=ts, source=source,
-                   columns=names, warnings=tuple(warnings), n_reversals=n_rev)
+                   columns=names, warnings=tuple(warnings), n_reversals=n_rev,
+                   units={"time": "s", "position": si, "position_logged": unit.name,
+                          "effort": "N"})
 
 
 # -- reading ------------------------------------------------------------------------------------
@@ -370,9 +389,15 @@ def _open(path: str) -> BinaryIO:
         raise DataError(f"{path}: cannot read: {exc.strerror}") from None
 
 
-def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = "x_ref",
-             position: str = "x", effort: str | None = "u",
-             effort_required: bool = False) -> RunData:
+Column = str | int
+"""A column of a run file: its header name, or its 0-based index (an int, or a string of
+digits that is not a header name)."""
+
+
+def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
+             reference: Column = "x_ref", position: Column = "x",
+             effort: Column | None = "u", effort_required: bool = False,
+             sample_time: float | None = None, position_unit: str = "m") -> RunData:
     """Read a run from a CSV file and validate it.
 
     The file (or a pipe) is read line by line: at most :data:`MAX_FILE_BYTES` bytes,
@@ -382,17 +407,29 @@ def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = 
     Parameters
     ----------
     path : str or PathLike
-        CSV file with a header row (comma, semicolon or tab separated; ``#`` comment lines
-        before the header are skipped). A quoted cell must end on its line.
-    time, reference, position : str
-        Column names of time (s), reference position (m) and measured position (m).
-    effort : str or None
-        Column name of the effort. When the column is missing the run has no effort, unless
-        ``effort_required`` (then it is an error); None never reads an effort.
+        CSV file with a header row (comma, semicolon or tab separated, whichever the header
+        holds most; ``#`` comment lines before the header are skipped). Numbers use a decimal
+        point (C locale); a decimal comma is refused. A quoted cell must end on its line.
+    time, reference, position : str or int
+        Columns of time (s), reference position and measured position (in
+        ``position_unit``): a header name, or a 0-based index (an int, or a string of digits
+        that is not a header name: ``"0"`` is the first column). ``time`` None: no time
+        column (then ``sample_time`` is required).
+    effort : str, int or None
+        Column of the effort (name or 0-based index). When the column is missing the run has
+        no effort, unless ``effort_required`` (then it is an error); None never reads an
+        effort.
     effort_required : bool
         Raise when the ``effort`` column is missing or degenerate (set when the user named it);
         otherwise a degenerate effort (constant, or off the scale of :data:`EFFORT_RANGE`) is
         dropped with a warning.
+    sample_time : float, optional
+        For a log without a time column: the sample time Ts (s); sample k is at ``t = k Ts``.
+        It is an error to give it for a file that has the ``time`` column.
+    position_unit : str
+        Unit of the position columns: ``m``, ``mm``, ``um`` (linear axis) or ``rad``, ``deg``
+        (rotary axis). Positions are converted to m or rad on reading; the scale checks of
+        :func:`validate_arrays` apply to the converted values.
 
     Returns
     -------
@@ -402,18 +439,59 @@ def load_run(path: str | os.PathLike[str], *, time: str = "t", reference: str = 
     ------
     DataError
         Missing, empty, binary or too large file, missing columns (the message lists those
-        found), bad quoting, overlong lines, non-numeric cells (line and column), NaN or inf,
+        found), both or neither of a time column and ``sample_time``, a decimal comma, bad
+        quoting, overlong lines, non-numeric cells (line and column), NaN or inf,
         time not increasing or irregular beyond 1 %, too few samples, no motion, values off
         the scale of a servo axis (see :func:`validate_arrays`).
     """
     path = os.fspath(path)
+    unit = _position_unit(position_unit)  # ValueError for an unknown unit, before reading
+    if sample_time is not None and not (math.isfinite(sample_time) and sample_time > 0.0):
+        raise ValueError(f"sample_time={sample_time!r}: expected a positive time step, s")
     with _open(path) as fh:
         return _parse(_lines(fh, path), path, time=time, reference=reference,
-                      position=position, effort=effort, effort_required=effort_required)
+                      position=position, effort=effort, effort_required=effort_required,
+                      sample_time=sample_time, to_si=unit.to_si, position_unit=unit.name)
 
 
-def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: str, reference: str,
-           position: str, effort: str | None, effort_required: bool) -> RunData:
+def _column_index(spec: Column, header: list[str]) -> int | None:
+    """Index of column ``spec`` (a header name, else a 0-based index) in ``header``, or
+    None when there is no such column."""
+    if isinstance(spec, str):
+        if spec in header:
+            return header.index(spec)
+        if not spec.strip().isdigit():
+            return None
+        spec = int(spec)
+    if isinstance(spec, bool) or not isinstance(spec, int):
+        raise TypeError(f"column {spec!r}: expected a header name (str) or a 0-based index "
+                        "(int)")
+    return spec if 0 <= spec < len(header) else None
+
+
+def _number(cell: str, path: str, line_no: int, name: str, delimiter: str) -> float:
+    """The value of one numeric cell; DataError naming the line and column otherwise."""
+    try:
+        value = float(cell)
+    except ValueError:
+        if _DECIMAL_COMMA.match(cell):
+            sep = {";": "semicolon", "\t": "tab"}.get(delimiter, repr(delimiter))
+            raise DataError(f"{path}: line {line_no}, column {name!r}: {cell[:40]!r} has a "
+                            f"decimal comma ({sep}-separated file); numbers must use a decimal "
+                            "point (C locale): export again with the C or English locale, or "
+                            "replace the commas by points") from None
+        raise DataError(f"{path}: line {line_no}, column {name!r}: {cell[:40]!r} "
+                        "is not a number") from None
+    if not math.isfinite(value):
+        raise DataError(f"{path}: line {line_no}, column {name!r}: {cell!r} is not "
+                        "finite (NaN or inf); remove or fill such rows")
+    return value
+
+
+def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | None,
+           reference: Column, position: Column, effort: Column | None,
+           effort_required: bool, sample_time: float | None = None, to_si: float = 1.0,
+           position_unit: str = "m") -> RunData:
     """Header, columns and numbers of the lines of a run file (see :func:`load_run`)."""
     seen_text = seen_line = False
     for line_no, text, complete in lines:
@@ -443,20 +521,40 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: str, refe
         j = _field_at(header_line, delimiter)
         raise DataError(f"{path}: line {header_no} (the header), field {j + 1}: bad quoting "
                         f"({exc}); a quoted name must close on its line") from None
-    wanted = {"t": time, "x_ref": reference, "x": position}
-    missing = [name for name in wanted.values() if name not in header]
-    if effort is not None and effort_required and effort not in header:
+    specs: dict[str, Column] = {"x_ref": reference, "x": position}
+    t_idx = _column_index(time, header) if time is not None else None
+    if sample_time is not None and t_idx is not None:
+        raise DataError(f"{path}: the file has a time column {header[t_idx]!r} and a sample "
+                        f"time {sample_time:g} s was given (--sample-time): give one of them "
+                        "(a log without a time column needs --sample-time)")
+    if sample_time is None:
+        if time is None:
+            raise DataError(f"{path}: no time column and no sample time: give the time column "
+                            "(--time) or the sample time of the log (--sample-time)")
+        specs = {"t": time, **specs}
+    idx: dict[str, int] = {}
+    missing: list[Column] = []
+    for key, spec in specs.items():
+        found = _column_index(spec, header)
+        if found is None:
+            missing.append(spec)
+        else:
+            idx[key] = found
+    j_u = _column_index(effort, header) if effort is not None else None
+    if effort is not None and effort_required and j_u is None:
         missing.append(effort)
     if missing:
+        hint = ("; or give the sample time of a log without one, --sample-time"
+                if "t" in specs and _column_index(specs["t"], header) is None else "")
         raise DataError(f"{path}: missing column(s) {', '.join(map(repr, missing))}; the file "
                         f"has {', '.join(map(repr, header))} (choose with --time, --reference, "
-                        "--position, --effort)")
+                        f"--position, --effort: a name or a 0-based index{hint})")
     if len(set(header)) != len(header):
         dup = sorted({h for h in header if header.count(h) > 1})
         raise DataError(f"{path}: duplicate column name(s) {dup} in the header")
-    if effort is not None and effort in header:
-        wanted["u"] = effort
-    idx = {key: header.index(name) for key, name in wanted.items()}
+    if j_u is not None:
+        idx["u"] = j_u
+    wanted = {key: header[j] for key, j in idx.items()}
     ncol = len(header)
 
     def column(j: int) -> str:
@@ -488,21 +586,18 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: str, refe
                             "rows (the most samples a run may have); cut the run into shorter "
                             "files")
         for key, j in idx.items():
-            cell = row[j].strip()
-            try:
-                value = float(cell)
-            except ValueError:
-                raise DataError(f"{path}: line {line_no}, column {header[j]!r}: {cell[:40]!r} "
-                                "is not a number") from None
-            if not math.isfinite(value):
-                raise DataError(f"{path}: line {line_no}, column {header[j]!r}: {cell!r} is not "
-                                "finite (NaN or inf); remove or fill such rows")
-            data[key].append(value)
+            data[key].append(_number(row[j].strip(), path, line_no, header[j], delimiter))
         line_numbers.append(line_no)
     if not line_numbers:
         raise DataError(f"{path}: the header has no data rows below it")
     names: dict[str, str | None] = dict(wanted)
-    return validate_arrays(np.asarray(data["t"]), np.asarray(data["x_ref"]),
-                           np.asarray(data["x"]), np.asarray(data["u"]) if "u" in data else None,
+    if sample_time is not None:
+        # t_k = k Ts
+        t = np.arange(len(line_numbers), dtype=float) * sample_time
+        names["t"] = f"k * {sample_time:g} s (--sample-time)"
+    else:
+        t = np.asarray(data["t"])
+    return validate_arrays(t, to_si * np.asarray(data["x_ref"]), to_si * np.asarray(data["x"]),
+                           np.asarray(data["u"]) if "u" in data else None,
                            source=path, names=names, line_numbers=np.asarray(line_numbers),
-                           effort_required=effort_required)
+                           effort_required=effort_required, position_unit=position_unit)

@@ -214,3 +214,86 @@ def test_sample_time_off_the_scale_of_an_axis():
     xr = 0.01 * np.sin(2 * np.pi * t / 100)
     with pytest.raises(DataError, match=r"sample time 1 s .* outside \[1e-06, 0.1\] s"):
         validate_arrays(t, xr, xr - 1e-6)
+
+
+# -- logs as they come: units, no time column, columns by index, separators -------------------
+def _log_rows(n: int = 400, amplitude: float = 90.0, sep: str = ",") -> list[str]:
+    """A log without a time column: reference, measurement, effort (positions in deg)."""
+    k = np.arange(n)
+    xr = amplitude * np.sin(2 * np.pi * k / 200)
+    x = xr - 0.5
+    u = 100.0 * np.cos(2 * np.pi * k / 200)
+    return [sep.join(f"{v:.6g}" for v in row) for row in zip(xr, x, u, strict=True)]
+
+
+def test_position_unit_converts_to_si_and_degrees_are_not_millimetres(tmp_path):
+    path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows(scale=1000.0))
+    run = load_run(path, position_unit="mm")
+    np.testing.assert_allclose(run.x_ref, 1e-3 * load_run(path).x_ref, rtol=1e-12)
+    assert not any("millimetres" in w for w in run.warnings)
+    assert run.units["position"] == "m" and run.units["position_logged"] == "mm"
+    deg = _write(tmp_path / "deg.csv", "Channel 1,Channel 2,Channel 3",
+                 _log_rows(amplitude=90.0))
+    run = load_run(deg, time=None, reference="Channel 1", position="Channel 2",
+                   effort="Channel 3", sample_time=2e-3, position_unit="deg")
+    np.testing.assert_allclose(np.max(run.x_ref), np.pi / 2, rtol=1e-6)
+    assert run.units["position"] == "rad" and run.units["position_logged"] == "deg"
+    assert not any("millimetres" in w for w in run.warnings)
+    with pytest.raises(ValueError, match="position unit 'inch'"):
+        load_run(deg, sample_time=2e-3, position_unit="inch")
+
+
+def test_scale_checks_apply_after_conversion(tmp_path):
+    # 2000 mm = 2 m: within +-1000 m once converted, refused when read as metres
+    rows = [f"{i * 1e-3:.3f},{2000 * np.sin(i / 50):.6g},{2000 * np.sin(i / 50) - 1:.6g}"
+            for i in range(400)]
+    path = _write(tmp_path / "run.csv", "t,x_ref,x", rows)
+    with pytest.raises(DataError, match=r"outside \+-1000 m"):
+        load_run(path)
+    assert np.max(np.abs(load_run(path, position_unit="mm").x_ref)) < 2.0
+    # 2e6 deg = 34907 rad: off the scale in rad as well
+    rows = [f"{i * 1e-3:.3f},{2e6 * np.sin(i / 50):.6g},{2e6 * np.sin(i / 50) - 1:.6g}"
+            for i in range(400)]
+    path = _write(tmp_path / "big.csv", "t,x_ref,x", rows)
+    with pytest.raises(DataError, match=r"outside \+-1000 rad \(after conversion from deg\)"):
+        load_run(path, position_unit="deg")
+
+
+def test_sample_time_builds_the_time_axis(tmp_path):
+    path = _write(tmp_path / "run.csv", "r,y,u", _log_rows())
+    run = load_run(path, reference="r", position="y", effort="u", sample_time=2e-3)
+    np.testing.assert_allclose(run.t[:3], [0.0, 2e-3, 4e-3])
+    assert run.ts == pytest.approx(2e-3) and run.n_samples == 400
+    with pytest.raises(DataError, match="missing column.*'t'.*give the sample time.*--sample-time"):
+        load_run(path, reference="r", position="y")
+    with pytest.raises(DataError, match="no time column and no sample time"):
+        load_run(path, time=None, reference="r", position="y")
+    timed = _write(tmp_path / "timed.csv", "t,x_ref,x,u", _good_rows())
+    with pytest.raises(DataError, match="has a time column 't' and a sample time"):
+        load_run(timed, sample_time=1e-3)
+
+
+def test_columns_by_zero_based_index(tmp_path):
+    path = _write(tmp_path / "run.csv", "Channel 1,Channel 2,Channel 3", _log_rows())
+    by_index = load_run(path, time=None, reference=0, position="1", effort=2,
+                        sample_time=1e-3)
+    by_name = load_run(path, time=None, reference="Channel 1", position="Channel 2",
+                       effort="Channel 3", sample_time=1e-3)
+    np.testing.assert_array_equal(by_index.x, by_name.x)
+    assert by_index.columns["x"] == "Channel 2" and by_index.u is not None
+    with pytest.raises(DataError, match="missing column.*'7'.*0-based index"):
+        load_run(path, time=None, reference=0, position="7", sample_time=1e-3)
+    # a header name wins over an index
+    named = _write(tmp_path / "named.csv", "1,0,u", _log_rows())
+    run = load_run(named, time=None, reference="0", position="1", sample_time=1e-3)
+    np.testing.assert_allclose(run.x_ref[:3], by_name.x[:3])
+
+
+def test_semicolons_and_a_decimal_comma(tmp_path):
+    rows = _log_rows(sep=";")
+    path = _write(tmp_path / "halscope.csv", "ref;pos;u", rows)
+    assert load_run(path, reference="ref", position="pos", sample_time=1e-3).n_samples == 400
+    comma = _write(tmp_path / "comma.csv", "ref;pos;u", [r.replace(".", ",") for r in rows])
+    with pytest.raises(DataError,
+                       match=r"line 2, column 'pos': '-0,5' has a decimal comma.*decimal point"):
+        load_run(comma, reference="ref", position="pos", sample_time=1e-3)
