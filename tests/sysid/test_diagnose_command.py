@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -97,3 +98,42 @@ def test_named_effort_column_must_exist(run_csv, capsys):
 def test_missing_output_directory(run_csv, tmp_path, capsys):
     code = main([run_csv, "--json", str(tmp_path / "nope" / "out.json"), "--quiet"])
     assert code == EXIT_BAD_INPUT and "does not exist" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def rotary_log(tmp_path_factory) -> str:
+    """A short simulated run written as a rotary log: no time column, degrees, by index."""
+    res = simulate(Axis(), _reference(duration=1.0), seed=1)
+    deg = 180.0 / np.pi * 100.0  # the 6 mm stroke read as 0.6 rad
+    path = tmp_path_factory.mktemp("rot") / "log.csv"
+    rows = "\n".join(f"{a * deg:.9g};{b * deg:.9g};{c:.9g}"
+                     for a, b, c in zip(res.x_ref, res.x, res.u, strict=True))
+    path.write_text("Channel 1;Channel 2;Channel 3\n" + rows + "\n")
+    return str(path)
+
+
+def test_rotary_log_without_time_column(rotary_log, tmp_path, capsys):
+    out = tmp_path / "out.json"
+    code = main([rotary_log, "--sample-time", "0.001", "--position-unit", "deg",
+                 "--reference", "0", "--position", "1", "--effort", "Channel 3",
+                 "--max-effects", "0", "--json", str(out), "--quiet"])
+    captured = capsys.readouterr()
+    assert code == EXIT_OK, captured.err
+    assert "millimetres" not in captured.err
+    assert " deg" in captured.out and not re.search(r"\b(um|mm/s)\b", captured.out)
+    data = json.loads(out.read_text())
+    assert data["data"]["position_unit"] == "deg" and data["data"]["position_unit_si"] == "rad"
+    assert "position_rms_rad" in data["linear_model"]
+    assert "prediction_floor_rad" in data["noise_floor"]
+    assert not any(k.endswith("_m") for k in data["noise_floor"])
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--sample-time", "0.001", "--time", "t"], "give one"),
+    (["--sample-time", "-1"], "positive time step"),
+    ([], "--sample-time"),
+])
+def test_time_axis_options(rotary_log, capsys, extra, message):
+    code = main([rotary_log, "--reference", "0", "--position", "1", "--quiet", *extra])
+    err = capsys.readouterr().err
+    assert code == EXIT_BAD_INPUT and message in err and "Traceback" not in err

@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fricbench.sysid.units import PositionUnit, position_unit
+
 if TYPE_CHECKING:
     from fricbench.sysid.io import RunData
 
@@ -38,12 +40,21 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     parser.add_argument("--json", metavar="OUT.json", help="write the JSON report here")
     parser.add_argument("--report", metavar="DIR",
                         help="write report.json and the residual plots into this directory")
-    cols = parser.add_argument_group("columns")
-    cols.add_argument("--time", default="t", help="time column, s (default: t)")
+    cols = parser.add_argument_group(
+        "columns", "a column is a header name or, when no column has that name, a 0-based "
+                   "index (0 is the first column); ',', ';' or tab separated, decimal point")
+    cols.add_argument("--time", default=None, help="time column, s (default: t)")
+    cols.add_argument("--sample-time", type=float, default=None, metavar="SECONDS",
+                      help="for a log without a time column: its sample time; row k is at "
+                           "t = k * SECONDS (not with a time column)")
     cols.add_argument("--reference", default="x_ref",
-                      help="reference position column, m (default: x_ref)")
+                      help="reference position column (default: x_ref)")
     cols.add_argument("--position", default="x",
-                      help="measured position column, m (default: x)")
+                      help="measured position column (default: x)")
+    cols.add_argument("--position-unit", default="m", choices=("m", "mm", "um", "rad", "deg"),
+                      help="unit of the position columns: m, mm, um (linear axis) or rad, deg "
+                           "(rotary axis); converted to m or rad inside, figures printed in "
+                           "um, mrad or deg (default: m)")
     cols.add_argument("--effort", default=None,
                       help="effort column (force, current or voltage); default: u when the "
                            "file has it")
@@ -89,6 +100,12 @@ def _check_options(args: argparse.Namespace, run: RunData | None = None) -> str 
         if args.filter_hz is not None and not (math.isfinite(args.filter_hz)
                                                and args.filter_hz > 0.0):
             return f"--filter-hz {args.filter_hz:g}: expected a positive cut-off frequency, Hz"
+        if args.sample_time is not None:
+            if args.time is not None:
+                return (f"--time {args.time} and --sample-time {args.sample_time:g}: give one "
+                        "(--sample-time is for a log without a time column)")
+            if not (math.isfinite(args.sample_time) and args.sample_time > 0.0):
+                return f"--sample-time {args.sample_time:g}: expected a positive time step, s"
         return None
     nyquist = 0.5 / run.ts
     if args.filter_hz is not None and args.filter_hz >= nyquist:
@@ -142,8 +159,9 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     effort = None if args.no_effort else (args.effort or "u")
     required = args.effort is not None and not args.no_effort
-    cols = dict(time=args.time, reference=args.reference, position=args.position,
-                effort=effort, effort_required=required)
+    cols = dict(time=args.time or "t", reference=args.reference, position=args.position,
+                effort=effort, effort_required=required, sample_time=args.sample_time,
+                position_unit=args.position_unit)
     try:
         run_data = load_run(args.data, **cols)
         other = load_run(args.validate, **cols) if args.validate else None
@@ -186,11 +204,15 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"error: cannot write the report: {exc}", file=sys.stderr)
         return EXIT_FAILED
-    _print_summary(report, run_data.n_samples, time.perf_counter() - t_start)
+    _print_summary(report, run_data.n_samples, time.perf_counter() - t_start,
+                   position_unit(args.position_unit))
     return EXIT_OK
 
 
-def _print_summary(report: dict, n_samples: int, elapsed: float) -> None:
+def _print_summary(report: dict, n_samples: int, elapsed: float,
+                   unit: PositionUnit | None = None) -> None:
+    unit = unit or position_unit("m")
+    sfx, k, lab = unit.si, unit.per_si, unit.display
     effects = report["effects"]
     print(f"effects found: {', '.join(effects) if effects else 'none'}")
     for step in report["steps"]:
@@ -199,11 +221,13 @@ def _print_summary(report: dict, n_samples: int, elapsed: float) -> None:
         extra = (f", effort {m['effort_relerr_pct']:.3f} %" if "effort_relerr_pct" in m
                  else "")
         print(f"  {step['step']}. {step['effect']}: {params}  "
-              f"(position rms {m['position_rms_m'] * 1e6:.3f} um{extra})")
+              f"(position rms {m[f'position_rms_{sfx}'] * k:.4g} {lab}{extra})")
     pos = report["position"]
-    print(f"position rms  {pos['rms_before'] * 1e6:.4g} -> {pos['rms_after'] * 1e6:.4g} um, "
-          f"max {pos['max_before'] * 1e6:.4g} -> {pos['max_after'] * 1e6:.4g} um "
-          f"(noise floor {report['noise_floor']['prediction_floor_m'] * 1e6:.3g} um)")
+    nf = report["noise_floor"]
+    print(f"position rms  {pos['rms_before'] * k:.4g} -> {pos['rms_after'] * k:.4g} {lab}, "
+          f"max {pos['max_before'] * k:.4g} -> {pos['max_after'] * k:.4g} {lab} "
+          f"(noise floor {nf[f'prediction_floor_{sfx}'] * k:.3g} {lab}, sensor quantum "
+          f"{nf[f'quantum_{sfx}'] * k:.3g} {lab})")
     if "effort" in report:
         e = report["effort"]
         print(f"effort relerr {e['relerr_before_pct']:.3f} -> {e['relerr_after_pct']:.3f} %")
@@ -211,7 +235,7 @@ def _print_summary(report: dict, n_samples: int, elapsed: float) -> None:
         v = report["validation"]
         vp = v["position"]
         print(f"validation ({os.path.basename(v['source'])}): position rms "
-              f"{vp['rms_before'] * 1e6:.4g} -> {vp['rms_after'] * 1e6:.4g} um"
+              f"{vp['rms_before'] * k:.4g} -> {vp['rms_after'] * k:.4g} {lab}"
               + (f", effort relerr {v['effort']['relerr_before_pct']:.3f} -> "
                  f"{v['effort']['relerr_after_pct']:.3f} %" if "effort" in v else ""))
     print(f"stop: {report['stop_reason']}")

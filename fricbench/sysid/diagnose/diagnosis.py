@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -118,7 +119,12 @@ class DiagnosisResult:
         return self.search.final.model
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-ready report: effects, position, effort, validation (details beside them)."""
+        """JSON-ready report: effects, position, effort, validation (details beside them).
+
+        Figures are in SI. For a rotary axis (positions in rad, ``run.units["position"]``)
+        the keys say so: ``position_rms_rad``, ``period_rad`` and so on instead of ``_m``;
+        ``data.position_unit`` records the unit the log was in.
+        """
         fu = self.force_unit
         steps = []
         for i, st in enumerate(self.search.steps[1:], start=1):
@@ -190,7 +196,27 @@ class DiagnosisResult:
             list(self.validation_run.warnings) if self.validation_run is not None else [])
         out["notes"] = list(self.notes)
         out["elapsed_s"] = self.elapsed_s
+        si = self.run.units.get("position", "m")
+        out["data"]["position_unit"] = self.run.units.get("position_logged", si)  # type: ignore
+        out["data"]["position_unit_si"] = si  # type: ignore
+        if si == "rad":
+            # a rotary axis: the same SI figures, keyed in rad (period_rad, position_rms_rad)
+            renamed = cast(dict, _rotary_keys(out))
+            data = renamed["data"]
+            if data["force_unit"] == "m_s2":
+                data["force_unit"] = "rad_s2"
+            return renamed
         return out
+
+
+def _rotary_keys(obj: object) -> object:
+    """``obj`` with the length unit ``m`` in its keys (``_m`` tokens) read as ``rad``."""
+    if isinstance(obj, dict):
+        return {("_".join("rad" if tok == "m" else tok for tok in k.split("_"))
+                 if isinstance(k, str) else k): _rotary_keys(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_rotary_keys(v) for v in obj]
+    return obj
 
 
 def _rms(e: np.ndarray) -> float:

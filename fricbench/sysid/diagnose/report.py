@@ -16,6 +16,7 @@ import numpy as np
 from fricbench._atomic import atomic_write_via
 from fricbench.sysid.diagnose.diagnosis import DiagnosisResult
 from fricbench.sysid.diagnose.models import InverseDynamics
+from fricbench.sysid.units import position_unit
 
 __all__ = ["write_json", "write_report", "jsonable", "PLOTS"]
 
@@ -87,7 +88,10 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     t = prep.inputs.t
     r_before = prep.x - result.train.y_before
     r_after = prep.x - result.train.y_after
-    um = 1e6
+    pu = position_unit(result.run.units.get("position_logged", "m"))
+    um, ul = pu.per_si, pu.display  # residuals in um, mrad or deg
+    vk, vl = pu.velocity_per_si, pu.velocity_display
+    xk, xl = pu.coarse_per_si, pu.coarse_display
     effort = None
     if prep.u is not None and result.mode == "effort":
         idim = InverseDynamics(prep, prep.u)
@@ -101,7 +105,7 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     ax = axes[0, 0]
     ax.plot(t, r_before * um, lw=0.6, color=colors["before"], label="linear model")
     ax.plot(t, r_after * um, lw=0.6, color=colors["after"], label="with effects")
-    ax.set_ylabel("position residual (um)")
+    ax.set_ylabel(f"position residual ({ul})")
     ax.set_xlabel("time (s)")
     ax.legend(loc="upper right")
     ax.set_title("measured minus free-run predicted position")
@@ -123,19 +127,19 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     v = prep.vf
     step = max(1, prep.n // 20000)
     ax = axes[0, 0]
-    ax.plot(v[::step] * 1e3, r_before[::step] * um, ".", ms=1, color=colors["before"],
+    ax.plot(v[::step] * vk, r_before[::step] * um, ".", ms=1, color=colors["before"],
             label="linear model")
-    ax.plot(v[::step] * 1e3, r_after[::step] * um, ".", ms=1, color=colors["after"],
+    ax.plot(v[::step] * vk, r_after[::step] * um, ".", ms=1, color=colors["after"],
             label="with effects")
-    ax.set_xlabel("velocity (mm/s)")
-    ax.set_ylabel("position residual (um)")
+    ax.set_xlabel(f"velocity ({vl})")
+    ax.set_ylabel(f"position residual ({ul})")
     ax.legend(loc="upper right", markerscale=8)
     if effort is not None:
         ax = axes[0, 1]
         vd = effort[2].v_dec
-        ax.plot(vd * 1e3, effort[0], ".", ms=1.5, color=colors["before"], label="linear")
-        ax.plot(vd * 1e3, effort[1], ".", ms=1.5, color=colors["after"], label="with effects")
-        ax.set_xlabel("velocity (mm/s)")
+        ax.plot(vd * vk, effort[0], ".", ms=1.5, color=colors["before"], label="linear")
+        ax.plot(vd * vk, effort[1], ".", ms=1.5, color=colors["after"], label="with effects")
+        ax.set_xlabel(f"velocity ({vl})")
         ax.set_ylabel(f"effort residual ({result.force_unit})")
         ax.legend(loc="upper right", markerscale=6)
     fig.tight_layout()
@@ -153,13 +157,13 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
         label, unit = "effort residual", result.force_unit
     else:
         xs, res_b, res_a, mv = x, r_before * um, r_after * um, moving
-        label, unit = "position residual", "um"
+        label, unit = "position residual", ul
     ax = axes[0]
-    ax.plot(xs[mv][::step] * 1e3, res_b[mv][::step], ".", ms=1, color=colors["before"],
+    ax.plot(xs[mv][::step] * xk, res_b[mv][::step], ".", ms=1, color=colors["before"],
             label="linear model")
-    ax.plot(xs[mv][::step] * 1e3, res_a[mv][::step], ".", ms=1, color=colors["after"],
+    ax.plot(xs[mv][::step] * xk, res_a[mv][::step], ".", ms=1, color=colors["after"],
             label="with effects")
-    ax.set_xlabel("position (mm)")
+    ax.set_xlabel(f"position ({xl})")
     ax.set_ylabel(f"{label} ({unit})")
     ax.legend(loc="upper right", markerscale=8)
     ax = axes[1]
@@ -176,13 +180,13 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
         means = np.bincount(seg, weights=res) / np.maximum(np.bincount(seg), 1)
         f, pw = _spatial_spectrum(xs[slow], (res - means[seg])[slow], width)
         if f.size:
-            ax.semilogy(f * 1e-3, pw, lw=0.8, color=colors[key],
+            ax.semilogy(f / xk, pw, lw=0.8, color=colors[key],
                         label="linear model" if key == "before" else "with effects")
-    ax.set_xlabel("spatial frequency (1/mm)")
+    ax.set_xlabel(f"spatial frequency (1/{xl})")
     ax.set_ylabel("power")
     if not ax.get_legend_handles_labels()[0]:
         ax.text(0.5, 0.5, "too few slow samples", ha="center", transform=ax.transAxes)
-    ax.set_title(f"spectrum against position, |v| < {width / dt * 1e3:.0f} mm/s\n"
+    ax.set_title(f"spectrum against position, |v| < {width / dt * vk:.3g} {vl}\n"
                  "(stroke means removed; a periodic force: a line)", fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper right")
@@ -202,7 +206,7 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     ax.plot([], [], color=colors["after"], label="with effects")
     ax.axvline(0.0, color="k", lw=0.5)
     ax.set_xlabel("time from a reference reversal (ms); sign flipped for reversals to -")
-    ax.set_ylabel("position residual (um)")
+    ax.set_ylabel(f"position residual ({ul})")
     ax.set_title("residual at reversals (backlash: a step, friction: a spike)")
     ax.legend(loc="upper right")
     fig.tight_layout()
@@ -218,7 +222,7 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     ax.bar(range(len(steps)), [s.position_rms * um for s in steps], color="tab:blue")
     ax.axhline(result.search.floor * um, color="k", ls="--", lw=0.8, label="noise floor")
     ax.set_xticks(range(len(steps)), labels, rotation=30, ha="right", fontsize=8)
-    ax.set_ylabel("position rms error (um)")
+    ax.set_ylabel(f"position rms error ({ul})")
     ax.legend(loc="upper right")
     if effort is not None:
         ax = axes[0, 1]
