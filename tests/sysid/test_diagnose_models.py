@@ -202,3 +202,27 @@ def test_joint_position_fit_of_one_run_is_the_position_fit():
     np.testing.assert_array_equal(y1, simulate_models([joint], prep)[0])
     with pytest.raises(ValueError, match="preps is empty"):
         JointPositionFit([], params)
+
+
+# -- the noise floor: rounded exports, a stated quantum, never zero ---------------------------
+def test_quantum_of_a_rounded_export_and_a_floor_never_zero():
+    from fricbench.sysid.diagnose.signals import noise_floor
+
+    q = 450.0 / 128.0  # deg: one count of a 10-bit potentiometer, exported to 0.01 deg
+    k = np.arange(4000)
+    counts = np.round(25.0 * np.sin(2 * np.pi * k / 1000.0) + 3.0 * np.sin(k / 37.0))
+    x = np.round(counts * q, 2)
+    assert set(np.round(np.abs(np.diff(x)), 2)) >= {3.51, 3.52}
+    nf = noise_floor(x, np.round(25.0 * q * np.sin(2 * np.pi * k / 1000.0), 2))
+    assert nf.quantum == pytest.approx(q, rel=1e-3) and nf.source == "quantum"
+    assert nf.rms == pytest.approx(q / np.sqrt(12.0), rel=1e-3)
+    stated = noise_floor(x, x + 1.0, quantum=2.0)
+    assert stated.quantum == 2.0 and stated.source == "stated quantum"
+    # a step run: at rest most of the time, the reference met exactly: MAD and quantum 0
+    xr = np.where((k // 1000) % 2 == 1, 1.0, 0.0)
+    xs = xr.copy()
+    xs[1000:1003] = [0.3, 0.7, 0.9]
+    floor = noise_floor(xs, xr)
+    assert floor.rms > 0.0 and np.isfinite(floor.rms)
+    with pytest.raises(ValueError, match="quantum"):
+        noise_floor(x, x, quantum=0.0)

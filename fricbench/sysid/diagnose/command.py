@@ -63,6 +63,9 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     cols.add_argument("--effort-unit", default="N",
                       help="unit of the effort, used to label force parameters (default: N)")
     tune = parser.add_argument_group("analysis")
+    tune.add_argument("--quantum", type=float, default=None,
+                      help="the position sensor's step, in --position-unit (default: detected "
+                           "from the data; rounded exports tolerated)")
     tune.add_argument("--max-effects", type=int, default=8,
                       help="most effects to add (default: 8)")
     tune.add_argument("--filter-hz", type=float, default=None,
@@ -100,6 +103,8 @@ def _check_options(args: argparse.Namespace, run: RunData | None = None) -> str 
         if args.filter_hz is not None and not (math.isfinite(args.filter_hz)
                                                and args.filter_hz > 0.0):
             return f"--filter-hz {args.filter_hz:g}: expected a positive cut-off frequency, Hz"
+        if args.quantum is not None and not (math.isfinite(args.quantum) and args.quantum > 0):
+            return f"--quantum {args.quantum:g}: expected a positive sensor step"
         if args.sample_time is not None:
             if args.time is not None:
                 return (f"--time {args.time} and --sample-time {args.sample_time:g}: give one "
@@ -181,6 +186,8 @@ def run(args: argparse.Namespace) -> int:
         result = diagnose(run_data, validate=other, force_unit=args.effort_unit,
                           settings=SearchSettings(max_steps=args.max_effects),
                           compare_tf=args.tf, cutoff_hz=args.filter_hz, decim=args.decimate,
+                          quantum=(None if args.quantum is None else
+                                   args.quantum * position_unit(args.position_unit).to_si),
                           log=log)
     except (ValueError, ArithmeticError) as exc:
         print(f"error: the diagnosis failed: {str(exc) or type(exc).__name__}", file=sys.stderr)

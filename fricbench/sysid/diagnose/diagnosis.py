@@ -259,6 +259,7 @@ def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared) -> RunEvaluation:
 def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
              settings: SearchSettings | None = None, compare_tf: bool = False,
              cutoff_hz: float | None = None, decim: int | None = None,
+             quantum: float | None = None,
              log: Callable[[str], None] | None = None) -> DiagnosisResult:
     """Find the effects a linear model of the run lacks, add them, report the errors.
 
@@ -279,6 +280,9 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     cutoff_hz, decim : optional
         Derivative filter (Hz, below the Nyquist frequency) and decimation (an integer >= 1)
         of the inverse dynamics (defaults: a tenth of the sampling rate, 10).
+    quantum : float, optional
+        The position sensor's step, in the run's SI unit (m or rad), when known; otherwise it
+        is detected from the data (see :func:`fricbench.sysid.diagnose.signals.noise_floor`).
     log : callable, optional
         Receives progress lines.
 
@@ -305,7 +309,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         raise ValueError(f"decim={decim!r}: expected an integer >= 1 (1: no decimation) or None")
     log = log or (lambda _s: None)
     t0 = time.perf_counter()
-    prep = prepare(run, cutoff_hz=cutoff_hz, decim=decim)
+    prep = prepare(run, cutoff_hz=cutoff_hz, decim=decim, quantum=quantum)
     notes: list[str] = []
     if prep.u is not None:
         mode, fu = "effort", force_unit
@@ -339,7 +343,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     tf = fit_linear_tf(prep) if compare_tf else None
     val_eval = None
     if validate is not None:
-        prep_v = prepare(validate, cutoff_hz=prep.cutoff_hz, decim=prep.decim)
+        prep_v = prepare(validate, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum)
         val_eval = _evaluate(linear, final, prep_v)
         if validate.u is None and prep.u is not None:
             notes.append("the validation run has no effort: only position metrics")

@@ -100,7 +100,7 @@ class Prepared:
 
 
 def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None = None,
-            n_sub: int = 2, n_blocks: int = 20) -> Prepared:
+            n_sub: int = 2, n_blocks: int = 20, quantum: float | None = None) -> Prepared:
     """Derive the signals of ``run`` used by the fits.
 
     Parameters
@@ -116,6 +116,8 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
         Plant substeps per sample in simulations.
     n_blocks : int
         Number of contiguous time blocks of the held-out folds.
+    quantum : float, optional
+        The position sensor's step (m or rad), when known; else detected from the data.
 
     Returns
     -------
@@ -139,7 +141,7 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     prep = Prepared(
         run=run, inputs=inputs, x=run.x, u=run.u, xf=xf, vf=vf, af=af, decim=decim,
         cutoff_hz=float(cutoff_hz), folds=folds, folds_dec=folds[::decim],
-        noise=noise_floor(run.x, run.x_ref), stroke=float(np.ptp(run.x)),
+        noise=noise_floor(run.x, run.x_ref, quantum), stroke=float(np.ptp(run.x)),
         center=float(0.5 * (np.max(run.x) + np.min(run.x))), v_max=float(np.max(np.abs(vr))),
         n_sub=int(n_sub),
     )

@@ -80,21 +80,41 @@ class NoiseFloor:
     quantum : float
         Detected quantisation step, m (0 when the values are not on a grid).
     rms : float
-        The floor a free-run prediction cannot beat: ``max(sigma, quantum / sqrt(12))``, m.
+        The floor a free-run prediction cannot beat: ``max(sigma, quantum / sqrt(12))``, m;
+        never zero (see :func:`noise_floor` for the fallbacks).
+    source : str
+        Where the floor comes from: ``"quantum"`` (detected), ``"stated quantum"``,
+        ``"noise"`` (third differences), or a fallback (``"noise, non-robust"``,
+        ``"resolution of the values"``).
     """
 
-    def __init__(self, sigma: float, quantum: float) -> None:
+    def __init__(self, sigma: float, quantum: float, source: str = "noise") -> None:
         self.sigma = float(sigma)
         self.quantum = float(quantum)
-        self.rms = max(self.sigma, self.quantum / np.sqrt(12.0))
+        self.source = source
+        self.rms = float(max(self.sigma, self.quantum / np.sqrt(12.0)))
 
-    def to_dict(self) -> dict[str, float]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready form."""
-        return {"sigma_m": self.sigma, "quantum_m": self.quantum, "rms_m": self.rms}
+        return {"sigma_m": self.sigma, "quantum_m": self.quantum, "rms_m": self.rms,
+                "source": self.source}
+
+
+QUANTUM_GRID_TOLERANCE = 0.05
+"""Largest deviation (99th percentile) of the values from the fitted grid, in steps, for the
+values to count as quantised: 5 % of a step tolerates an export rounded to a few digits (a
+3.5156 deg step logged to 0.01 deg reads 3.51 or 3.52 deg, 0.15 % off the grid)."""
 
 
 def _quantum(x: np.ndarray) -> float:
-    """Encoder step of ``x`` (m), or 0 when the values do not lie on a grid."""
+    """Encoder step of ``x`` (m), or 0 when the values do not lie on a grid.
+
+    The smallest step between samples that occurs repeatedly (within 2 %, so that the steps of
+    a rounded export, 3.51 and 3.52, count as one) is a first guess; the step and the offset of
+    the grid ``x = x0 + n q`` are then fitted by least squares to the distinct values, so that
+    the rounding of single steps averages out. The values must lie on that grid within
+    :data:`QUANTUM_GRID_TOLERANCE`.
+    """
     d = np.abs(np.diff(x))
     scale = max(float(np.max(np.abs(x))), 1e-12)
     d = np.sort(d[d > 1e-9 * scale])
@@ -103,38 +123,84 @@ def _quantum(x: np.ndarray) -> float:
     # the smallest step that occurs repeatedly
     q = 0.0
     for cand in d[: min(d.size, 200)]:
-        if np.count_nonzero(np.abs(d[:2000] - cand) <= 0.01 * cand) >= 5:
+        if np.count_nonzero(np.abs(d[:2000] - cand) <= 0.02 * cand) >= 5:
             q = float(cand)
             break
     if q <= 0.0:
         return 0.0
-    frac = x / q - np.round(x / q)
-    frac = frac - np.median(frac)
+    levels = np.unique(x)
+    if levels.size < 3:
+        return q
+    for _ in range(3):
+        # levels = x0 + n q: slope and intercept by least squares over the distinct values
+        n = np.round((levels - levels[0]) / q)
+        if np.ptp(n) <= 0:
+            return 0.0
+        q_new, x0 = np.polyfit(n, levels, 1)
+        if not (np.isfinite(q_new) and q_new > 0.0):
+            return 0.0
+        q = float(q_new)
+    frac = (x - x0) / q
     frac = frac - np.round(frac)
-    return q if float(np.percentile(np.abs(frac), 99)) < 0.02 else 0.0
+    return q if float(np.percentile(np.abs(frac), 99)) < QUANTUM_GRID_TOLERANCE else 0.0
 
 
-def noise_floor(x: np.ndarray, x_ref: np.ndarray) -> NoiseFloor:
+def noise_floor(x: np.ndarray, x_ref: np.ndarray, quantum: float | None = None) -> NoiseFloor:
     """Estimate the measurement noise and quantisation of ``x``.
 
     The third difference of the tracking error ``x - x_ref`` removes the smooth motion; for
     white noise its variance is ``20 sigma^2``. A robust scale (median absolute deviation)
-    ignores the short transients at starts and reversals.
+    ignores the short transients at starts and reversals. The sensor step is detected by
+    :func:`_quantum` (rounded exports tolerated) unless ``quantum`` states it.
+
+    The floor is never zero. When the values are on no grid and the median absolute deviation
+    is 0 (a coarse sensor at rest most of the time, or the reference equal to the measurement
+    at most samples), ``sigma`` falls back to the rms of the third difference (non-robust);
+    when that is 0 too, to the resolution of the values: the smallest nonzero difference
+    between two distinct values over ``sqrt(12)``, or ``1e-9`` of their magnitude.
 
     Parameters
     ----------
     x, x_ref : ndarray, shape (K,)
         Measured and reference position, m.
+    quantum : float, optional
+        The sensor's step, m, when known (``fricbench diagnose --quantum``); > 0.
 
     Returns
     -------
     NoiseFloor
+
+    Raises
+    ------
+    ValueError
+        ``quantum`` not a positive finite number.
     """
-    e = np.asarray(x, dtype=float) - np.asarray(x_ref, dtype=float)
+    xx = np.asarray(x, dtype=float)
+    e = xx - np.asarray(x_ref, dtype=float)
     d3 = np.diff(e, 3)
-    mad = float(np.median(np.abs(d3 - np.median(d3))))
+    mad = float(np.median(np.abs(d3 - np.median(d3)))) if d3.size else 0.0
     sigma = 1.4826 * mad / np.sqrt(20.0)
-    return NoiseFloor(sigma, _quantum(np.asarray(x, dtype=float)))
+    source = "noise"
+    if quantum is not None:
+        if not (np.isfinite(quantum) and quantum > 0.0):
+            raise ValueError(f"quantum={quantum!r}: expected a positive sensor step, m")
+        q, q_source = float(quantum), "stated quantum"
+    else:
+        q, q_source = _quantum(xx), "quantum"
+    if q / np.sqrt(12.0) >= sigma and q > 0.0:
+        source = q_source
+    if sigma <= 0.0 and q <= 0.0:
+        sigma = float(np.sqrt(np.mean(d3**2)) / np.sqrt(20.0)) if d3.size else 0.0
+        source = "noise, non-robust"
+        if not sigma > 0.0:
+            levels = np.unique(xx)
+            steps = np.diff(levels)
+            steps = steps[steps > 0.0]
+            res = float(np.min(steps)) if steps.size else 0.0
+            sigma = max(res / np.sqrt(12.0), 1e-9 * float(np.max(np.abs(xx), initial=0.0)),
+                        1e-300)
+            source = "resolution of the values"
+    return NoiseFloor(sigma, q, source)
 
 
 def block_folds(n: int, n_blocks: int = 20, n_folds: int = 2) -> np.ndarray:
