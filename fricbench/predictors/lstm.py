@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -68,6 +69,10 @@ __all__ = ["TFLSTMPredictor", "SequenceNet"]
 TARGETS = ("friction_error", "residual")
 BASES = ("tf", "greybox")
 CELLS = ("lstm", "gru")
+
+#: Held while a candidate seeds torch's global generator and draws its initial weights from
+#: it, so that fits running side by side in threads of one process cannot interleave there.
+_GLOBAL_RNG_LOCK = threading.Lock()
 
 
 class SequenceNet(torch.nn.Module):
@@ -143,9 +148,11 @@ class _Candidate:
     that training can stop after the screening epochs and resume where it left off."""
 
     def __init__(self, owner: TFLSTMPredictor, seed: int, data: _Data) -> None:
-        torch.manual_seed(seed)
         self.owner, self.data = owner, data
-        self.net = owner._new_net()
+        # the module initialisers draw from torch's global generator: seed and draw in one go
+        with _GLOBAL_RNG_LOCK:
+            torch.manual_seed(seed)
+            self.net = owner._new_net()
         self.opt = torch.optim.Adam(self.net.parameters(), lr=owner.learning_rate)
         self.sched = torch.optim.lr_scheduler.ReduceLROnPlateau(self.opt, factor=0.5,
                                                                 patience=5)

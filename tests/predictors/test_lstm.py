@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 import torch
@@ -114,3 +118,30 @@ def test_first_window_starts_at_the_record_start(small_runs) -> None:
     with torch.no_grad():
         first = pred.net_(torch.from_numpy(feats[None, :300])).double().numpy()[0]
     np.testing.assert_allclose(y[:300], first * pred.target_scale_, rtol=1e-6, atol=1e-12)
+
+
+def test_same_seed_same_numbers_under_concurrent_load(small_runs) -> None:
+    # the second fit runs while a busy-loop process loads the cores and a third fit trains in
+    # another thread of this process (its candidates in threads too): weights and
+    # predictions must match the fit made alone, bit for bit
+    kw = {"max_epochs": 3, "hidden_size": 4, "window": 300, "burn_in": 100, "batch_size": 8,
+          "verbose": 0, "n_init": 2, "screen_epochs": 1, "n_jobs": 2}
+    ref = make_trajectory("reversal_sine", cycles=1)
+    alone = TFLSTMPredictor(**kw).fit(small_runs)
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            other = pool.submit(lambda: TFLSTMPredictor(**kw).fit(small_runs))
+            loaded = TFLSTMPredictor(**kw).fit(small_runs)
+            beside = other.result()
+    finally:
+        busy.kill()
+        busy.wait()
+    expected = alone.net_.state_dict()
+    for fit in (loaded, beside):
+        state = fit.net_.state_dict()
+        assert state.keys() == expected.keys()
+        for k, v in expected.items():
+            assert torch.equal(state[k], v), k
+        assert fit.candidate_val_losses_ == alone.candidate_val_losses_
+        np.testing.assert_array_equal(fit.predict(ref), alone.predict(ref))
