@@ -99,8 +99,8 @@ def _cmd_list(args: argparse.Namespace) -> int:
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from fricbench._atomic import atomic_write
     from fricbench.axis import simulate
+    from fricbench.axis.export import plot_run, write_csv
     from fricbench.gym import get_spec
     from fricbench.trajectories import make_trajectory
 
@@ -109,55 +109,15 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     ref = make_trajectory(args.trajectory, ts=axis.controller.ts)
     res = simulate(axis, ref, seed=args.seed)
     if args.csv:
-        x_ref, x, u = (np.atleast_2d(a) for a in (res.x_ref, res.x, res.u))
-        cols = ["t", "x_ref", "x", "u"]
-        data = [res.t, x_ref[0], x[0], u[0]]
-        for i in range(1, x_ref.shape[0]):
-            cols += [f"x_ref_{i}", f"x_{i}", f"u_{i}"]
-            data += [x_ref[i], x[i], u[i]]
-        lines = [",".join(cols)]
-        lines += [",".join(f"{v:.12g}" for v in row) for row in np.column_stack(data)]
-        atomic_write(args.csv, "\n".join(lines) + "\n")
+        cols = write_csv(res, args.csv)
         print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (s, m, m, N)")
     if args.plot:
-        _plot_run(res, f"{args.env} on {args.trajectory}", args.plot)
+        plot_run(res, f"{args.env} on {args.trajectory}", args.plot)
         print(f"wrote {args.plot}")
     err = np.atleast_2d(res.error) * 1e6
     print(f"{args.env} / {args.trajectory}: max |e| = {np.abs(err).max():.2f} um, "
           f"rms = {np.sqrt((err**2).mean()):.2f} um over {res.t[-1]:.2f} s")
     return 0
-
-
-def _plot_run(res: object, title: str, path: str) -> None:
-    import io
-
-    import numpy as np
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from fricbench._atomic import atomic_write
-
-    fig = Figure(figsize=(9, 6), dpi=100)
-    FigureCanvasAgg(fig)
-    a1, a2 = fig.subplots(2, 1, sharex=True)
-    x_ref = np.atleast_2d(res.x_ref)  # type: ignore[attr-defined]
-    x = np.atleast_2d(res.x)  # type: ignore[attr-defined]
-    err = np.atleast_2d(res.error)  # type: ignore[attr-defined]
-    t = res.t  # type: ignore[attr-defined]
-    for i in range(x_ref.shape[0]):
-        a1.plot(t, x_ref[i] * 1e3, "k--", lw=1, label="reference" if i == 0 else None)
-        a1.plot(t, x[i] * 1e3, lw=1, label=f"measured axis {i}")
-        a2.plot(t, err[i] * 1e6, lw=1, label=f"axis {i}")
-    a1.set_ylabel("position [mm]")
-    a1.legend(fontsize=8)
-    a1.set_title(title)
-    a2.set_ylabel("tracking error [um]")
-    a2.set_xlabel("time [s]")
-    a2.grid(alpha=0.3)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    atomic_write(path, buf.getvalue())
 
 
 def _cmd_perf(args: argparse.Namespace) -> int:
