@@ -9,6 +9,7 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
+from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 
@@ -54,7 +55,7 @@ class Backlash(Effect):
         sse = []
         for yy in ys:
             r = (prep.x - yy)[mask]
-            sse.append(float(np.einsum("i,i->", r, r)) if np.all(np.isfinite(r))
+            sse.append(sumsq(r) if np.all(np.isfinite(r))
                        else float("inf"))
         return models[int(np.argmin(sse))]
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
+from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 
@@ -61,7 +62,7 @@ class ThermalDrift(Effect):
         best = (math.inf, 0.0, prep.duration)
         for tau in prep.duration * np.array([0.03, 0.1, 0.3, 1.0, 3.0]):
             col = 1.0 - np.exp(-t / tau)
-            den = float(np.einsum("i,i->", col[mask], col[mask]))
+            den = sumsq(col[mask])
             if den <= 0:
                 continue
             amp = float(np.einsum("i,i->", col[mask], r[mask])) / den
