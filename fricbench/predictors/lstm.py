@@ -52,6 +52,7 @@ import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
@@ -89,19 +90,36 @@ class SequenceNet(torch.nn.Module):
         return self.head(h).squeeze(-1)
 
 
+#: Fits inside :func:`_torch_determinism` and the torch settings to restore after the last.
+_SETTINGS_LOCK = threading.Lock()
+_SETTINGS: dict[str, Any] = {"active": 0, "threads": 1, "deterministic": False}
+
+
 @contextlib.contextmanager
 def _torch_determinism(seed: int, n_threads: int) -> Iterator[None]:
-    """Seed torch, force deterministic kernels and a fixed thread count; restore afterwards."""
-    prev_threads = torch.get_num_threads()
-    prev_det = torch.are_deterministic_algorithms_enabled()
-    torch.set_num_threads(n_threads)
-    torch.use_deterministic_algorithms(True)
-    torch.manual_seed(seed)
+    """Seed torch, force deterministic kernels and a fixed thread count; restore afterwards.
+
+    The thread count and the deterministic flag are process-wide: with fits side by side in
+    threads, only the last one to leave restores them (restoring while another fit trains
+    would change its kernels, hence its numbers).
+    """
+    with _SETTINGS_LOCK:
+        if _SETTINGS["active"] == 0:
+            _SETTINGS["threads"] = torch.get_num_threads()
+            _SETTINGS["deterministic"] = torch.are_deterministic_algorithms_enabled()
+        _SETTINGS["active"] += 1
+        torch.set_num_threads(n_threads)
+        torch.use_deterministic_algorithms(True)
+        with _GLOBAL_RNG_LOCK:
+            torch.manual_seed(seed)
     try:
         yield
     finally:
-        torch.set_num_threads(prev_threads)
-        torch.use_deterministic_algorithms(prev_det)
+        with _SETTINGS_LOCK:
+            _SETTINGS["active"] -= 1
+            if _SETTINGS["active"] == 0:
+                torch.set_num_threads(_SETTINGS["threads"])
+                torch.use_deterministic_algorithms(_SETTINGS["deterministic"])
 
 
 def _masked_mse(out: torch.Tensor, y: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
