@@ -61,6 +61,12 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
             u += a[i] * uh[i]
         for j in range(nc):
             u += c[j] * yh[j]
+        # a drive that clips its command logs the clipped value, and the law identified from
+        # that log recurses on it (a velocity-form law, which winds up no integrator)
+        if u > pc.i_max:
+            u = pc.i_max
+        elif u < -pc.i_max:
+            u = -pc.i_max
         for i in range(na - 1, 0, -1):
             uh[i] = uh[i - 1]
         if na > 0:

@@ -9,7 +9,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.controllers import CascadeController, fit_arx_controller
+from fricbench.sysid.diagnose.controllers import (
+    ArxController,
+    CascadeController,
+    fit_arx_controller,
+)
 from fricbench.sysid.diagnose.models import (
     Bounds,
     GreyBox,
@@ -127,6 +131,22 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     return best.model, best.y, bounds, best.jac_rows
 
 
+def fit_law(prep: Prepared) -> ArxController:
+    """The run's control law from its logged effort (clipped samples left out).
+
+    Raises
+    ------
+    ValueError
+        The run has no effort.
+    """
+    if prep.u is None:
+        raise ValueError("fit_law: the run has no effort column")
+    inp = prep.inputs
+    exclude = prep.saturation.mask if prep.saturation is not None else None
+    return fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
+                              exclude=exclude)
+
+
 def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bounds, float]:
     """Linear grey-box loop from a measured effort: identified controller + IDIM-LS mass.
 
@@ -142,10 +162,11 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     """
     if prep.u is None:
         raise ValueError("fit_linear_with_effort: the run has no effort column")
-    inp = prep.inputs
-    ctrl = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds)
+    ctrl = fit_law(prep)
     idim = InverseDynamics(prep, prep.u)
     p = idim.fit((), CL.default_plant(1.0, 0.0))
+    if prep.saturation is not None:
+        p[CL.I_IMAX] = prep.saturation.level
     model = GreyBox(ctrl, p)
     bounds = Bounds(force=force_scale(prep.u, prep.ts), stroke=max(prep.stroke, 1e-9),
                     v_max=max(prep.v_max, 1e-9), duration=prep.duration, ts=prep.ts,

@@ -11,7 +11,8 @@ Both halves live in :mod:`fricbench.axis`: the plant (:mod:`fricbench.axis.plant
 code the environments run) and the linear-law driver (:mod:`fricbench.axis.linear_law`). This
 module only names the plant entries the effects of :mod:`fricbench.sysid.diagnose.effects` fit
 and sets the plant up the diagnosis's way: a unit force gain (the effort is the force, or an
-acceleration for a unit mass), no actuator limits, feedback on the motor side.
+acceleration for a unit mass), no actuator limit unless the logged effort clips (``I_IMAX``),
+feedback on the motor side.
 
 Units: any consistent set. With a measured effort, forces are in the effort's unit (N when it is
 a force) and ``M`` in that unit per m/s^2; without one the mass is normalised to 1 and every
@@ -29,7 +30,7 @@ from fricbench.axis.plant import N_PLANT, PLANT_NAMES, sliding_force
 __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_plant",
            "sliding_force", "from_legacy_row", "LEGACY_N_PLANT",
            "I_M", "I_B", "I_FC", "I_DFC", "I_DB", "I_FS", "I_VS", "I_OFF", "I_COGA", "I_COGB",
-           "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT"]
+           "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_IMAX"]
 
 # -- the plant entries the diagnosis fits (indices into the plant row) --------------------------
 I_M, I_B, I_FC, I_DFC, I_DB = PL.M, PL.B, PL.FC, PL.DFC, PL.DB
@@ -37,6 +38,7 @@ I_FS, I_VS, I_OFF = PL.FS_EXCESS, PL.VS, PL.OFFSET
 I_COGA, I_COGB, I_COGP = PL.COG_SIN, PL.COG_COS, PL.COG_PERIOD
 I_PDG, I_PDA, I_PDB, I_PDP, I_XC = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIOD, PL.PD_CENTER
 I_BL, I_THA, I_THT = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU
+I_IMAX = PL.IMAX
 
 # the 19-entry row of grey-box files written before the plant was shared with the axis
 _LEGACY = (I_M, I_B, I_FC, I_DFC, I_DB, I_FS, I_VS, I_OFF, I_COGA, I_COGB, I_COGP, I_PDG, I_PDA,

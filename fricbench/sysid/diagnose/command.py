@@ -123,15 +123,12 @@ def _check_options(args: argparse.Namespace, run: RunData | None = None) -> str 
     return None
 
 
-# candidate details hold NaN on purpose for candidates that were ranked but not fitted
-_UNSCORED = frozenset({"candidates", "rejected_at_last_step"})
-
-
 def _non_finite(obj: object, path: str = "") -> list[str]:
-    """Key paths of the NaN and inf results in a report, as ``key.sub = value`` (the candidate
-    lists, where NaN marks a candidate not fitted, are not results)."""
+    """Key paths of the NaN, inf and None values in a report, as ``key.sub = value``."""
+    if obj is None:
+        return [f"{path} = null"]
     if isinstance(obj, dict):
-        return [p for k, v in obj.items() if k not in _UNSCORED
+        return [p for k, v in obj.items()
                 for p in _non_finite(v, f"{path}.{k}" if path else k)]
     if isinstance(obj, (list, tuple)):
         return [p for i, v in enumerate(obj) for p in _non_finite(v, f"{path}[{i}]")]
@@ -190,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
                                    args.quantum * position_unit(args.position_unit).to_si),
                           log=log)
     except (ValueError, ArithmeticError) as exc:
+        # DiagnosisError (no valid model) included: say why, write nothing, exit non-zero
         print(f"error: the diagnosis failed: {str(exc) or type(exc).__name__}", file=sys.stderr)
         return EXIT_FAILED
     report = result.to_dict()
@@ -212,15 +210,22 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: cannot write the report: {exc}", file=sys.stderr)
         return EXIT_FAILED
     _print_summary(report, run_data.n_samples, time.perf_counter() - t_start,
-                   position_unit(args.position_unit))
+                   position_unit(args.position_unit),
+                   frozenset(run_data.warnings + (other.warnings if other is not None else ())))
     return EXIT_OK
 
 
 def _print_summary(report: dict, n_samples: int, elapsed: float,
-                   unit: PositionUnit | None = None) -> None:
+                   unit: PositionUnit | None = None, printed: frozenset[str] = frozenset()
+                   ) -> None:
     unit = unit or position_unit("m")
     sfx, k, lab = unit.si, unit.per_si, unit.display
     effects = report["effects"]
+    for w in report["warnings"]:
+        if w not in printed:
+            print(f"warning: {w}", file=sys.stderr)
+    v = report["verdict_detail"]
+    print(f"verdict: {v['verdict']}: {v['reason']}; residual: {v['residual']}")
     print(f"effects found: {', '.join(effects) if effects else 'none'}")
     for step in report["steps"]:
         params = ", ".join(f"{k}={v:.4g}" for k, v in step["parameters"].items())

@@ -200,7 +200,7 @@ def _design(xr: np.ndarray, x: np.ndarray, u: np.ndarray, na: int, nc: int, lead
 
 def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndarray,
                        ts: float, folds: np.ndarray, *, lead: int = 2, lag: int = 3,
-                       nc: int = 4) -> ArxController:
+                       nc: int = 4, exclude: np.ndarray | None = None) -> ArxController:
     """Identify the control law from reference, measured position and effort.
 
     Least squares on the equation error (the effort is computed by the controller from the
@@ -221,14 +221,29 @@ def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndar
         Reference look-ahead and look-back, samples.
     nc : int
         Number of position taps ``x[k] .. x[k-nc+1]``.
+    exclude : ndarray of bool, shape (K,), optional
+        Samples whose effort is not the law's output (a clipped command): equations that
+        hold one of them, as output or as recursion, are left out.
 
     Returns
     -------
     ArxController
     """
+    def usable(na: int, mat: np.ndarray, rhs: np.ndarray, rows: slice
+               ) -> tuple[np.ndarray, np.ndarray, slice | np.ndarray]:
+        if exclude is None or not np.any(exclude):
+            return mat, rhs, rows
+        k = np.arange(rows.start, rows.stop)
+        bad = exclude[k].copy()
+        for i in range(1, na + 1):
+            bad |= exclude[k - i]
+        if np.count_nonzero(~bad) < max(50, 0.2 * k.size):
+            return mat, rhs, rows  # hardly anything left: the clipped rows are kept
+        return mat[~bad], rhs[~bad], k[~bad]
+
     best: tuple[float, int] | None = None
     for na in (0, 1):
-        mat, rhs, rows = _design(xr, x, u, na, nc, lead, lag)
+        mat, rhs, rows = usable(na, *_design(xr, x, u, na, nc, lead, lag))
         f = folds[rows]
         sse = 0.0
         for k in (0, 1):
@@ -238,7 +253,7 @@ def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndar
         if best is None or sse < 0.8 * best[0]:
             best = (sse, na)
     na = best[1] if best is not None else 0
-    mat, rhs, rows = _design(xr, x, u, na, nc, lead, lag)
+    mat, rhs, rows = usable(na, *_design(xr, x, u, na, nc, lead, lag))
     coef = solve_ls(mat, rhs)
     a = coef[:na]
     b = coef[na:na + lead + lag + 1]

@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -15,6 +16,7 @@ import numpy as np
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.baselines import (
     LinearTF,
+    fit_law,
     fit_linear_cascade,
     fit_linear_tf,
     fit_linear_with_effort,
@@ -25,9 +27,11 @@ from fricbench.sysid.diagnose.effects import describe_parameters
 from fricbench.sysid.diagnose.models import GreyBox, InverseDynamics, simulate_position
 from fricbench.sysid.diagnose.prepared import Prepared, prepare
 from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
+from fricbench.sysid.diagnose.verdict import Verdict, judge
 from fricbench.sysid.io import RunData
 
-__all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "INJECTED_EFFORT_SHARE"]
+__all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "INJECTED_EFFORT_SHARE",
+           "DiagnosisError", "LAW_MAX_RELERR_PCT"]
 
 INJECTED_EFFORT_SHARE = 0.02
 """Share of the effort (rms) the controller law must leave unexplained before the remainder is
@@ -107,6 +111,28 @@ class DiagnosisResult:
     linear_tf: LinearTF | None
     elapsed_s: float
     notes: list[str] = field(default_factory=list)
+    laws: dict[str, str] = field(default_factory=dict)
+    diagnosis_warnings: list[str] = field(default_factory=list)
+
+    @property
+    def warnings(self) -> list[str]:
+        """The runs' reading warnings, then the diagnosis's, in order."""
+        out = list(self.run.warnings)
+        if self.validation_run is not None:
+            out += list(self.validation_run.warnings)
+        return out + list(self.diagnosis_warnings)
+
+    def verdict(self) -> Verdict:
+        """The verdict (:mod:`fricbench.sysid.diagnose.verdict`)."""
+        pos = self.train.position()
+        if self.validation is not None:
+            vpos = self.validation.position()
+            held, name = (vpos["rms_before"], vpos["rms_after"]), "validation"
+        else:
+            held, name = (pos["rms_before"], pos["rms_after"]), "training (free run)"
+        return judge(self.effects, pos["rms_after"], max(self.search.floor, 1e-300),
+                     self.prep.x - self.train.y_after, self.prep.x, self.prep.inputs.vr,
+                     self.prep.ts, heldout=held, heldout_name=name)
 
     @property
     def effects(self) -> list[str]:
@@ -144,7 +170,10 @@ class DiagnosisResult:
                 "model": _model_dict(st.model, fu),
                 "candidates": [c.to_dict() for c in st.candidates],
             })
+        verdict = self.verdict()
         out: dict[str, object] = {
+            "verdict": verdict.verdict,
+            "verdict_detail": verdict.to_dict(),
             "effects": self.effects,
             "position": self.train.position(),
         }
@@ -180,6 +209,7 @@ class DiagnosisResult:
             out["linear_tf"] = {"orders": list(self.linear_tf.order), "position_rms_m": _rms(e),
                                 "position_max_m": float(np.max(np.abs(e))),
                                 "tf": str(self.linear_tf.tf).strip()}
+        out["controller_laws"] = dict(self.laws)
         out["stop_reason"] = self.search.stop_reason
         out["rejected_at_last_step"] = [c.to_dict() for c in rejected]
         out["noise_floor"] = dict(self.prep.noise.to_dict(),
@@ -189,11 +219,13 @@ class DiagnosisResult:
                        "reversals": self.run.n_reversals, "columns": self.run.columns,
                        "mode": self.mode, "force_unit": fu,
                        "derivative_filter_hz": self.prep.cutoff_hz,
-                       "decimation": self.prep.decim}
+                       "decimation": self.prep.decim,
+                       "filter_chosen_by": self.prep.filter_source}
+        if self.prep.saturation is not None:
+            out["data"]["effort_saturation"] = self.prep.saturation.to_dict()  # type: ignore
         if self.train.injected_share is not None:
             out["data"]["injected_effort_share_pct"] = 100.0 * self.train.injected_share  # type: ignore
-        out["warnings"] = list(self.run.warnings) + (
-            list(self.validation_run.warnings) if self.validation_run is not None else [])
+        out["warnings"] = self.warnings
         out["notes"] = list(self.notes)
         out["elapsed_s"] = self.elapsed_s
         si = self.run.units.get("position", "m")
@@ -207,6 +239,37 @@ class DiagnosisResult:
                 data["force_unit"] = "rad_s2"
             return renamed
         return out
+
+
+LAW_MAX_RELERR_PCT = 25.0
+"""Largest relative error (%) of a control law identified from the effort that is still used
+to simulate the loop. Test pulses injected into the effort leave 10..15 % (EMPS's pulse run:
+13 %); an effort logged slower than the loop runs, or a controller that is not linear, leaves
+far more (34 % on a drive logged at 100 Hz)."""
+
+UNSTABLE_FACTOR = 10.0
+"""A free run whose rms error exceeds this multiple of the stroke has left the data: the loop
+is taken as unstable."""
+
+
+class DiagnosisError(ValueError):
+    """No valid model of the run exists (every candidate loop diverges, say)."""
+
+
+def _law_unusable(relerr: float, prep: Prepared, y_lin: np.ndarray) -> str | None:
+    """Why the control law identified from the effort cannot drive the simulations, or None."""
+    if relerr > LAW_MAX_RELERR_PCT:
+        return (f"the control law identified from the effort leaves {relerr:.0f} % of it "
+                f"unexplained (more than {LAW_MAX_RELERR_PCT:.0f} %): the effort may be logged "
+                "slower than the loop runs, or the controller is not linear")
+    e = prep.x - y_lin
+    if not np.all(np.isfinite(e)):
+        return ("the control law identified from the effort closes an unstable loop with "
+                "the linear plant (its free run diverges)")
+    if _rms(e) > UNSTABLE_FACTOR * max(prep.stroke, prep.noise.rms):
+        return ("the control law identified from the effort, with the linear plant, runs "
+                "away from the data (free-run error larger than the stroke)")
+    return None
 
 
 def _rotary_keys(obj: object) -> object:
@@ -240,12 +303,29 @@ def _injected(ctrl: ArxController | CascadeController, prep: Prepared
         return None, None, False
     inp = prep.inputs
     w = prep.u - ctrl.predict(inp.xr, inp.vr, prep.x, prep.u, prep.ts)
-    share = float(np.sqrt(np.mean(w**2)) / max(np.sqrt(np.mean(prep.u**2)), 1e-300))
+    # the first and last samples miss the law's history (the reference is extended at
+    # constant velocity): a mismatch there is the start, not an injected input
+    edge = slice(_EDGE, -_EDGE) if w.shape[0] > 4 * _EDGE else slice(None)
+    share = float(np.sqrt(np.mean(w[edge]**2)) / max(np.sqrt(np.mean(prep.u[edge]**2)), 1e-300))
     use = share > INJECTED_EFFORT_SHARE
     return (w if use else None), share, use
 
 
-def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared) -> RunEvaluation:
+def _on_run(model: GreyBox, prep: Prepared, law: ArxController | None) -> GreyBox:
+    """``model``'s plant in the loop of another run: that run's own law and actuator limit."""
+    if law is None:
+        return model
+    p = model.plant.copy()
+    p[CL.I_IMAX] = prep.saturation.level if prep.saturation is not None else np.inf
+    return model.copy(controller=law, plant=p)
+
+
+_EDGE = 8  # samples at each end of a run outside the identified law's reach
+
+
+def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
+              law: ArxController | None = None) -> RunEvaluation:
+    linear, final = _on_run(linear, prep, law), _on_run(final, prep, law)
     w, share, used = _injected(final.controller, prep)
     y_before, _ = simulate_position(linear, prep, w)
     y_after, _ = simulate_position(final, prep, w)
@@ -311,25 +391,56 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     t0 = time.perf_counter()
     prep = prepare(run, cutoff_hz=cutoff_hz, decim=decim, quantum=quantum)
     notes: list[str] = []
+    warnings: list[str] = []
+    laws: dict[str, str] = {}
+    if prep.saturation is not None:
+        sat = prep.saturation
+        warnings.append(f"the effort saturates at {sat.level:.4g} {force_unit} "
+                        f"({100 * sat.share:.2f} % of the samples): those samples are left out "
+                        "of the law and friction fits, and the simulated drive clips there")
+    if prep.filter_source == "sensor resolution":
+        notes.append(f"derivative filter {prep.cutoff_hz:.3g} Hz and decimation {prep.decim} "
+                     "chosen from the sensor resolution against the motion's mean speed (the "
+                     "recipe's tenth of the sampling rate would differentiate the sensor's "
+                     "steps); --filter-hz and --decimate override")
+    idim: InverseDynamics | None = None
     if prep.u is not None:
-        mode, fu = "effort", force_unit
         log("linear model: controller law from the effort, inverse dynamics u = M a + B v")
         linear, idim, bounds, ctrl_err = fit_linear_with_effort(prep)
+        w, share, used = _injected(linear.controller, prep)
+        y_lin, _ = simulate_position(linear, prep, w)
+        why = _law_unusable(ctrl_err, prep, y_lin)
+        if why is not None:
+            warnings.append(f"{why}: the effort is not used for the loop; the diagnosis runs "
+                            "on the position alone (forces per unit mass)")
+            log(f"warning: {warnings[-1]}")
+            prep = prepare(dataclasses.replace(run, u=None), cutoff_hz=cutoff_hz, decim=decim,
+                           quantum=quantum)
+    if prep.u is not None:
+        mode, fu = "effort", force_unit
         notes.append(f"controller law identified from the effort with {ctrl_err:.2f} % "
                      "relative error")
-        w, share, used = _injected(linear.controller, prep)
+        laws["train"] = f"identified on the training run ({ctrl_err:.2f} % relative error)"
         if used and share is not None:
             notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
                          "controller law; it is fed to the simulations as an injected input")
-        y_lin, _ = simulate_position(linear, prep, w)
         jac = None
     else:
         mode, fu = "position", "m_s2"
         log("linear model: cascade controller on a unit mass, output-error fit")
-        linear, y_lin, bounds, jac = fit_linear_cascade(prep)
+        try:
+            linear, y_lin, bounds, jac = fit_linear_cascade(prep)
+        except ValueError as exc:
+            raise DiagnosisError(f"no valid linear model of this run: {exc}") from exc
+        if not (np.all(np.isfinite(y_lin))
+                and _rms(prep.x - y_lin) <= UNSTABLE_FACTOR * max(prep.stroke, prep.noise.rms)):
+            raise DiagnosisError("no valid linear model of this run: every linear loop fitted "
+                                 "to the position diverges or misses it by more than the "
+                                 "stroke")
         idim, w = None, None
         notes.append("no effort column: forces are reported per unit mass (m/s^2)")
-    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} m"
+        laws["train"] = "a cascade fitted to the training run's position"
+    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
         f" ({time.perf_counter() - t0:.1f} s)")
     alt: tuple = ()
     if mode == "position" and run.n_reversals > 0:
@@ -344,10 +455,26 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     val_eval = None
     if validate is not None:
         prep_v = prepare(validate, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum)
-        val_eval = _evaluate(linear, final, prep_v)
+        law_v = None
+        if mode == "effort" and prep_v.u is not None:
+            # the plant is what is validated; the loop is the validation run's own: its law
+            # (it may be another controller, or other gains) identified from its effort
+            law_v = fit_law(prep_v)
+            laws["validation"] = ("identified on the validation run "
+                                  f"({law_v.relerr_pct:.2f} % relative error)")
+        else:
+            laws["validation"] = f"the training run's ({laws['train']})"
+        val_eval = _evaluate(linear, final, prep_v, law_v)
         if validate.u is None and prep.u is not None:
             notes.append("the validation run has no effort: only position metrics")
+        if not np.all(np.isfinite(val_eval.y_after)):
+            warnings.append("the final model diverges on the validation run")
+    if not (np.all(np.isfinite(train.y_after)) and np.all(np.isfinite(train.y_before))):
+        raise DiagnosisError("the fitted loop diverges in a free run of the training run: no "
+                             "valid model of this run")
+    warnings += search.warnings
     return DiagnosisResult(run=run, prep=prep, mode=mode, force_unit=fu, linear=linear,
                            search=search, train=train, validation=val_eval,
                            validation_run=validate, linear_tf=tf,
-                           elapsed_s=time.perf_counter() - t0, notes=notes)
+                           elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
+                           diagnosis_warnings=warnings)

@@ -34,7 +34,11 @@ from fricbench.sysid.diagnose.signals import (
 
 __all__ = ["GreyBox", "simulate_position", "simulate_models", "simulate_inputs", "Param",
            "position_params", "PositionFit", "JointPositionFit", "InverseDynamics",
-           "cascade_effort", "Bounds", "prediction_floor"]
+           "cascade_effort", "Bounds", "prediction_floor", "NoStartError"]
+
+class NoStartError(ValueError):
+    """An effect's nonlinear parameter has no start on this run (it cannot be fitted)."""
+
 
 KI_MIN_RATIO = 0.02
 """Smallest integral rate of the cascade model, as a fraction of the velocity-loop gain."""
@@ -469,6 +473,10 @@ class InverseDynamics:
 
         grid = effect.idim_grid(self, effects, p, rows, start)
         if grid.size == 0:
+            if start:
+                # no start for its shape (no spatial period in the residual, say): the
+                # effect cannot be fitted here, rather than fitted at a placeholder value
+                raise NoStartError(f"{name}: no start for its nonlinear parameter on this run")
             return p
         best_val, best_sse = float(grid[0]), math.inf
         for g in grid:

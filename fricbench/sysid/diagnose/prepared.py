@@ -10,8 +10,11 @@ import numpy as np
 from fricbench.sysid.diagnose.controllers import LoopInputs
 from fricbench.sysid.diagnose.signals import (
     NoiseFloor,
+    Saturation,
     block_folds,
+    choose_filter,
     decimate_columns,
+    detect_saturation,
     filtered_derivatives,
     noise_floor,
 )
@@ -53,7 +56,13 @@ class Prepared:
     n_sub : int
         Plant substeps per sample of the simulations.
     sliding_dec : ndarray of bool
-        Decimated rows away from rest (the inverse dynamics is fitted on these).
+        Decimated rows away from rest and away from a saturated effort (the inverse dynamics
+        is fitted on these).
+    saturation : Saturation or None
+        The clip level of the effort, when the effort saturates.
+    filter_source : str
+        How the derivative filter and decimation were chosen (``"stated"``, ``"default"``,
+        ``"sensor resolution"``).
     """
 
     run: RunData
@@ -73,6 +82,8 @@ class Prepared:
     v_max: float
     n_sub: int = 2
     sliding_dec: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    saturation: Saturation | None = None
+    filter_source: str = "default"
     _dec_cache: dict[object, np.ndarray] = field(default_factory=dict, repr=False)
 
     @property
@@ -107,11 +118,12 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     ----------
     run : RunData
     cutoff_hz : float, optional
-        Derivative filter cut-off, Hz (default: a tenth of the sampling rate, 100 Hz at 1 kHz,
-        the EMPS IDIM-LS recipe).
+        Derivative filter cut-off, Hz. Default: chosen from the data by
+        :func:`fricbench.sysid.diagnose.signals.choose_filter` (a tenth of the sampling rate,
+        the EMPS IDIM-LS recipe, unless the sensor is too coarse for the motion's speed).
     decim : int, optional
-        Decimation factor of the inverse-dynamics regression (default 10, as in the recipe:
-        the regression keeps content below 4 % of the sampling rate, 40 Hz at 1 kHz).
+        Decimation factor of the inverse-dynamics regression (default: from the data as well;
+        10 with the recipe's filter).
     n_sub : int
         Plant substeps per sample in simulations.
     n_blocks : int
@@ -124,16 +136,20 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     Prepared
     """
     ts = run.ts
-    fs = 1.0 / ts
-    if cutoff_hz is None:
-        cutoff_hz = 0.1 * fs
-    if decim is None:
-        decim = 10
-    decim = int(max(1, min(decim, run.n_samples // 100)))
     t = run.t - run.t[0]
     vr = np.gradient(run.x_ref, ts)
     ar = np.gradient(vr, ts)
+    noise = noise_floor(run.x, run.x_ref, quantum)
+    auto_fc, auto_decim, source = choose_filter(run.x, ts, noise)
+    if cutoff_hz is not None or decim is not None:
+        source = "stated"
+    if cutoff_hz is None:
+        cutoff_hz = auto_fc
+    if decim is None:
+        decim = auto_decim
+    decim = int(max(1, min(decim, run.n_samples // 100)))
     xf, vf, af = filtered_derivatives(run.x, ts, cutoff_hz)
+    sat = detect_saturation(run.u) if run.u is not None else None
     u0 = float(run.u[0]) if run.u is not None else float(ar[0])
     inputs = LoopInputs(t=t, ts=ts, xr=run.x_ref, vr=vr, ar=ar, x0=float(run.x[0]),
                         v0=float(vf[0]), u0=u0)
@@ -141,9 +157,9 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     prep = Prepared(
         run=run, inputs=inputs, x=run.x, u=run.u, xf=xf, vf=vf, af=af, decim=decim,
         cutoff_hz=float(cutoff_hz), folds=folds, folds_dec=folds[::decim],
-        noise=noise_floor(run.x, run.x_ref, quantum), stroke=float(np.ptp(run.x)),
+        noise=noise, stroke=float(np.ptp(run.x)),
         center=float(0.5 * (np.max(run.x) + np.min(run.x))), v_max=float(np.max(np.abs(vr))),
-        n_sub=int(n_sub),
+        n_sub=int(n_sub), saturation=sat, filter_source=source,
     )
     # align the decimated folds with the decimated columns
     n_dec = prep.dec("ones", np.ones(run.n_samples)).shape[0]
@@ -155,4 +171,9 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     prep.sliding_dec = rest < 0.05
     if np.count_nonzero(prep.sliding_dec) < 0.2 * n_dec:
         prep.sliding_dec = np.ones(n_dec, dtype=bool)
+    if sat is not None:
+        # a clipped effort is the drive's limit, not the force the law asked for: the rows it
+        # touches (after the decimation filter's spread) stay out of the friction fit
+        near = prep.dec("saturated", sat.mask.astype(float))
+        prep.sliding_dec = prep.sliding_dec & (np.abs(near) < 0.01)
     return prep

@@ -46,6 +46,7 @@ from fricbench.sysid.diagnose.models import (
     Bounds,
     GreyBox,
     InverseDynamics,
+    NoStartError,
     PositionFit,
     PositionFitResult,
     cascade_effort,
@@ -116,11 +117,16 @@ class CandidateScore:
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready form."""
-        return {"effect": self.effect, "n_params": self.n_params,
-                "heldout_error_ratio": self.heldout_ratio,
-                "heldout_gain_pct": 100.0 * (1.0 - self.heldout_ratio),
-                "judged_on": self.judged_on, "size": self.size, "size_ok": self.size_ok,
-                "note": self.note}
+        out: dict[str, object] = {"effect": self.effect, "n_params": self.n_params,
+                                  "heldout_error_ratio": self.heldout_ratio,
+                                  "heldout_gain_pct": 100.0 * (1.0 - self.heldout_ratio),
+                                  "judged_on": self.judged_on}
+        if math.isfinite(self.size):
+            # a candidate ranked but not fitted has no size: the key is left out, not null
+            out["size"] = self.size
+        out["size_ok"] = self.size_ok
+        out["note"] = self.note
+        return out
 
 
 @dataclass
@@ -145,6 +151,7 @@ class SearchResult:
     stop_reason: str
     floor: float
     elapsed_s: float
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def final(self) -> Step:
@@ -155,6 +162,11 @@ class SearchResult:
 # -- helpers --------------------------------------------------------------------------------------
 def _rms(r: np.ndarray) -> float:
     return float(np.sqrt(sumsq(r) / r.shape[0])) if np.all(np.isfinite(r)) else float("inf")
+
+
+def _unit(prep: Prepared) -> str:
+    """The SI unit of the run's positions (m, or rad for a rotary axis)."""
+    return prep.run.units.get("position", "m")
 
 
 def _n_params(effect: str, effects: tuple[str, ...]) -> int:
@@ -220,9 +232,14 @@ def _effect_position_size(model: GreyBox, name: str, prep: Prepared, w: np.ndarr
     return _rms(y - y0)
 
 
+POSITION_TOLERANCE = 0.02
+"""An effect may make the free-run position prediction worse by this fraction at most."""
+
+
 def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b: Bounds,
                         settings: SearchSettings, w: np.ndarray | None,
-                        log: Callable[[str], None]) -> tuple[list[Step], str, float]:
+                        log: Callable[[str], None], warnings: list[str]
+                        ) -> tuple[list[Step], str, float]:
     y, _ = simulate_position(model, prep, w)
     steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))),
                   idim.relerr(model.plant))]
@@ -240,9 +257,13 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
             n_par = _n_params(name, effects)
             if get_effect(name).kind == "force":
                 p0 = _init_effect(m, name, prep, b).plant
-                cv, _ = idim.cv_sse(effects, p0, new=name)
+                try:
+                    cv, _ = idim.cv_sse(effects, p0, new=name)
+                    p_all = idim.fit(effects, p0, new=name)
+                except NoStartError as exc:
+                    log(f"    {name:28s} not fitted: {exc}")
+                    continue
                 ratio = cv / max(base_cv, 1e-300)
-                p_all = idim.fit(effects, p0, new=name)
                 force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
                 share = _rms(force) / max(u_rms, 1e-300)
                 sc = CandidateScore(name, n_par, ratio, "effort", share,
@@ -261,25 +282,49 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
             log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
                 f"({n_par} par){'' if sc.size_ok else ' too small'}")
         # force effects first: an output effect cannot change the effort, and while a force
-        # effect is missing the position residual it leaves can look like an output effect
-        winner = _pick([s for s in scores if s.judged_on == "effort"], settings)
-        if winner is None:
-            winner = _pick(scores, settings)
-        if winner is None:
+        # effect is missing the position residual it leaves can look like an output effect.
+        # A winner must also keep the free-run position of the run (never fitted by the
+        # effort search, so held out from it) within POSITION_TOLERANCE of the current
+        # model's, and must not be an artefact; else the next candidate is tried.
+        accepted: tuple[CandidateScore, GreyBox, np.ndarray] | None = None
+        pool = list(scores)
+        while accepted is None:
+            winner = _pick([s for s in pool if s.judged_on == "effort"], settings)
+            if winner is None:
+                winner = _pick(pool, settings)
+            if winner is None:
+                break
+            pool = [s for s in pool if s is not winner]
+            new = proposals[winner.effect]
+            if get_effect(winner.effect).kind == "force" and any(
+                    get_effect(e).kind == "output" for e in new.effects):
+                new = _output_fit(new, prep, b, w, None).model
+            y_new, _ = simulate_position(new, prep, w)
+            why = artefact(new, winner.effect, prep, b)
+            rms_new = _rms(prep.x - y_new)
+            if why is None and not rms_new <= (1.0 + POSITION_TOLERANCE) * cur.position_rms:
+                why = (f"{winner.effect}: it cuts the held-out effort error "
+                       f"({100 * (1 - winner.heldout_ratio):.1f} %) but makes the free-run "
+                       f"position worse ({cur.position_rms:.4g} -> {rms_new:.4g} "
+                       f"{_unit(prep)} rms)")
+            if why is not None:
+                winner.size_ok = False
+                winner.note = (winner.note + "; " if winner.note else "") + "rejected: " + why
+                warnings.append(f"rejected {why}")
+                log(f"    rejected {why}")
+                continue
+            accepted = (winner, new, y_new)
+        if accepted is None:
             reason = "no candidate improves the held-out error significantly"
             cur.candidates = scores
             break
-        new = proposals[winner.effect]
-        if get_effect(winner.effect).kind == "force" and any(
-                get_effect(e).kind == "output" for e in new.effects):
-            new = _output_fit(new, prep, b, w, None).model
-        y_new, _ = simulate_position(new, prep, w)
+        winner, new, y_new = accepted
         step = Step(winner.effect, new, y_new, _rms(prep.x - y_new),
                     float(np.max(np.abs(prep.x - y_new))), idim.relerr(new.plant), scores,
                     winner.heldout_ratio)
         steps.append(step)
         log(f"  + {winner.effect}: effort relerr {step.effort_relerr_pct:.3f} %, position rms "
-            f"{step.position_rms:.3g} m")
+            f"{step.position_rms:.3g} {_unit(prep)}")
     return steps, reason, floor
 
 
@@ -292,6 +337,59 @@ def _start_output(model: GreyBox, name: str, prep: Prepared, b: Bounds, w: np.nd
     m = _init_effect(model, name, prep, b)
     allm = np.ones(prep.n, dtype=bool)
     return get_effect(name).output_start(m, prep, b, w, y, allm, simulate_models)
+
+
+QUANTUM_PERIOD_TOLERANCE = 0.05
+"""A spatial period within this fraction of a small multiple of the sensor quantum is the
+sensor's staircase, not the axis."""
+
+QUANTUM_MULTIPLES = (1, 2, 3, 4)
+"""The multiples of the sensor quantum a period is compared with."""
+
+
+def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> str | None:
+    """Why the fitted effect ``name`` of ``model`` is a sensor or fit artefact, or None.
+
+    * a spatial period within :data:`QUANTUM_PERIOD_TOLERANCE` of a small multiple of the
+      sensor quantum (the staircase of a coarse sensor leaves a residual with that period);
+    * the spatial period of a periodic term (:attr:`Effect.periodic`) longer than the stroke
+      (a level change, not a period);
+    * a shape parameter (a period, a time constant, a Stribeck velocity) that ended on a
+      bound of its physical range (the optimum lies outside it: the effect stands in for
+      something else). Sizes are not checked: their bounds are a multiple of the run's force
+      scale, not a physical limit, and a vanished size is rejected by the size test.
+    """
+    effect = get_effect(name)
+    p = model.plant
+    if effect.period_parameter is not None:
+        per = float(p[effect.period_parameter])
+        q = prep.noise.quantum
+        for k in QUANTUM_MULTIPLES:
+            if q > 0.0 and abs(per / (k * q) - 1.0) <= QUANTUM_PERIOD_TOLERANCE:
+                times = "" if k == 1 else f"{k} x "
+                return (f"{name}: its period {per:.4g} is {times}the sensor quantum "
+                        f"{q:.4g}: the sensor's staircase, not the axis")
+        if effect.periodic and per > prep.stroke:
+            return (f"{name}: its period {per:.4g} is longer than the stroke {prep.stroke:.4g}: "
+                    "a level change, not a period")
+    for i in effect.free(model.effects):
+        if i not in effect.shape_parameters:
+            continue
+        v = float(p[i])
+        par = effect.bounds(i, v, b)
+        span = par.hi - par.lo
+        if not (np.isfinite(span) and span > 0.0):
+            continue
+        tol = 1e-4 * span if not par.log else 1e-4 * abs(par.hi)
+        hit = None
+        if v >= par.hi - tol:
+            hit = f"upper bound {par.hi:.4g}"
+        elif par.lo != 0.0 and v <= par.lo + (1e-4 * abs(par.lo) if par.log else tol):
+            hit = f"lower bound {par.lo:.4g}"
+        if hit is not None:
+            return (f"{name}: its parameter {CL.PLANT_NAMES[i]} = {v:.4g} ended on its {hit}: "
+                    "the optimum lies outside the physical range")
+    return None
 
 
 def _pick(scores: list[CandidateScore], settings: SearchSettings) -> CandidateScore | None:
@@ -515,7 +613,7 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
 
 def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
                            settings: SearchSettings, log: Callable[[str], None],
-                           jac: np.ndarray | None, alt_loops: tuple = (),
+                           jac: np.ndarray | None, warnings: list[str], alt_loops: tuple = (),
                            budget_iter: int = 5) -> tuple[list[Step], str, float]:
     steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))), None)]
     floor_linear = prediction_floor(model, prep)
@@ -532,8 +630,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         floor = max(min(prediction_floor(m, prep), floor_linear),
                     FLOOR_NOISE_FACTOR * prep.noise.rms)
         if cur.position_rms <= floor:
-            reason = (f"the position residual ({cur.position_rms:.3g} m rms) is at the noise "
-                      f"floor of a free-run prediction ({floor:.3g} m): nothing left to explain")
+            reason = (f"the position residual ({cur.position_rms:.3g} {_unit(prep)} rms) is at "
+                      f"the noise floor of a free-run prediction ({floor:.3g} {_unit(prep)}): "
+                      "nothing left to explain")
             break
         # ---- linearised screen (under each loop estimate, before the first effect)
         variants: dict[str, list[_Variant]] = {}
@@ -625,12 +724,18 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             k_best = min(fits, key=lambda k: fits[k].cost)
             full = _refit(fits[k_best].model, prep, b, 12)
             size = _effect_position_size(full.model, winner.effect, prep, None, full.y)
-            if size >= settings.min_position_share * floor and full.cost <= _half_sse(
-                    cur.y, prep):
+            why = artefact(full.model, winner.effect, prep, b)
+            if why is None and size >= settings.min_position_share * floor and (
+                    full.cost <= _half_sse(cur.y, prep)):
                 accepted = (winner, full)
                 break
             winner.size_ok = False
-            winner.note += f"; vanished in the refit on all samples (size {size / floor:.2f})"
+            if why is not None:
+                winner.note += f"; rejected: {why}"
+                warnings.append(f"rejected {why}")
+            else:
+                winner.note += (f"; vanished in the refit on all samples "
+                                f"(size {size / floor:.2f})")
             log(f"    {winner.effect} rejected: {winner.note}")
             pool = [s for s in pool if s is not winner]
         if accepted is None:
@@ -644,7 +749,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         step = Step(winner.effect, full.model, full.y, _rms(prep.x - full.y),
                     float(np.max(np.abs(prep.x - full.y))), None, scores, winner.heldout_ratio)
         steps.append(step)
-        log(f"  + {winner.effect}: position rms {step.position_rms:.3g} m")
+        log(f"  + {winner.effect}: position rms {step.position_rms:.3g} {_unit(prep)}")
     return steps, reason, floor
 
 
@@ -724,12 +829,14 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     settings = settings or SearchSettings()
     log = log or (lambda _s: None)
     t0 = time.perf_counter()
+    warnings: list[str] = []
     if idim is not None:
-        steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log)
+        steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log,
+                                                   warnings)
     else:
         steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log, jac,
-                                                      alt_loops)
-    return SearchResult(steps, reason, floor, time.perf_counter() - t0)
+                                                      warnings, alt_loops)
+    return SearchResult(steps, reason, floor, time.perf_counter() - t0, warnings)
 
 
 def step_parameters(step: Step, force_unit: str) -> dict[str, dict[str, float]]:

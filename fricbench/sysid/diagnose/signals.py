@@ -10,11 +10,14 @@ filtering does not bias a model that is linear in its parameters.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 from scipy import optimize, signal
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
-           "block_folds", "reversal_mask", "period_candidates", "MIN_PERIODS_IN_STROKE"]
+           "block_folds", "reversal_mask", "period_candidates", "MIN_PERIODS_IN_STROKE",
+           "choose_filter", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
 
 MIN_PERIODS_IN_STROKE = 2.0
 """Fewest periods of a periodic force (cogging) the stroke must cover for it to be searched:
@@ -201,6 +204,160 @@ def noise_floor(x: np.ndarray, x_ref: np.ndarray, quantum: float | None = None) 
                         1e-300)
             source = "resolution of the values"
     return NoiseFloor(sigma, q, source)
+
+
+STEPS_PER_FILTER_PERIOD = 5.0
+"""Resolution steps the axis must cover, at its mean speed, in one period of the derivative
+filter's cut-off. Below that the filtered velocity is mostly the staircase of a coarse sensor
+(each step is a jump of one resolution in one sample), and its second derivative is noise."""
+
+
+def choose_filter(x: np.ndarray, ts: float, noise: NoiseFloor) -> tuple[float, int, str]:
+    """Derivative filter cut-off (Hz) and decimation chosen from the sensor and the motion.
+
+    The IDIM-LS recipe of the EMPS reference (a cut-off at a tenth of the sampling rate,
+    decimation by 10) assumes a fine sensor. A coarse one (a potentiometer on a 10-bit ADC, a
+    low-count encoder) is differentiated twice into noise with that filter. The resolution
+    ``res = sqrt(12) * noise.rms`` (the quantum, or the white noise's equivalent) against the
+    mean speed ``v`` of the measured motion (its path length through a play of one
+    resolution, which ignores dithering by a step at rest, over the duration) gives the
+    cut-off ``v / (STEPS_PER_FILTER_PERIOD * res)`` when that is lower than the recipe's; the
+    decimation keeps the decimated Nyquist frequency near the cut-off (``fs / fc``), with at
+    least 400 decimated rows and never less than the recipe's 10.
+
+    Parameters
+    ----------
+    x : ndarray, shape (K,)
+        Measured position (m or rad).
+    ts : float
+        Sample time, s.
+    noise : NoiseFloor
+        The position's noise floor (:func:`noise_floor`).
+
+    Returns
+    -------
+    cutoff_hz : float
+    decim : int
+    source : str
+        ``"default"`` (the recipe) or ``"sensor resolution"``.
+    """
+    fs = 1.0 / ts
+    n = int(x.shape[0])
+    fc_recipe, decim_recipe = 0.1 * fs, 10
+    res = float(np.sqrt(12.0) * noise.rms)
+    duration = n * ts
+    if not (res > 0.0 and n > 10 and duration > 0.0):
+        return fc_recipe, decim_recipe, "default"
+    # path length through a play operator one resolution wide: a step back and forth at rest
+    # does not count as motion
+    y = float(x[0])
+    path = 0.0
+    half = 0.5 * res
+    for xk in np.asarray(x, dtype=float)[:: max(1, n // 20000)]:
+        if xk > y + half:
+            path += xk - half - y
+            y = xk - half
+        elif xk < y - half:
+            path += y - (xk + half)
+            y = xk + half
+    v_mean = path / duration
+    fc = v_mean / (STEPS_PER_FILTER_PERIOD * res)
+    fc_min = max(5.0 / duration, 0.002 * fs)
+    if not np.isfinite(fc) or fc >= fc_recipe or v_mean <= 0.0:
+        return fc_recipe, decim_recipe, "default"
+    fc = max(fc, fc_min)
+    decim = int(max(decim_recipe, min(round(fs / fc), n // 400)))
+    return float(fc), decim, "sensor resolution"
+
+
+@dataclass(frozen=True)
+class Saturation:
+    """Where the logged effort sits at the drive's limit.
+
+    Attributes
+    ----------
+    high, low : float or None
+        Clip levels detected on each side (None: that side never clips).
+    level : float
+        The symmetric limit given to the simulated actuator: the larger detected magnitude.
+    mask : ndarray of bool
+        Samples at a clip level.
+    """
+
+    high: float | None
+    low: float | None
+    level: float
+    mask: np.ndarray = field(repr=False)
+
+    @property
+    def share(self) -> float:
+        """Fraction of the samples at a clip level."""
+        return float(np.mean(self.mask))
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready form (levels in the effort's unit)."""
+        out: dict[str, object] = {"level": self.level, "samples": int(np.count_nonzero(
+            self.mask)), "share_pct": 100.0 * self.share}
+        if self.high is not None:
+            out["high"] = self.high
+        if self.low is not None:
+            out["low"] = self.low
+        return out
+
+
+def _clip_side(u: np.ndarray, top: float, tol: float, sign: float) -> np.ndarray | None:
+    """Mask of samples at ``top`` when the effort piles up there (a clip), else None.
+
+    A clipped signal piles samples onto one level; the peak of an unclipped (even coarsely
+    quantised) signal visits its top level about as often as the level below it.
+    """
+    at = sign * (u - top) >= -tol
+    n_top = int(np.count_nonzero(at))
+    if n_top < 3:
+        return None
+    below = u[~at]
+    if below.size == 0:
+        return None
+    nxt = below[np.argmax(sign * below)]
+    n_next = int(np.count_nonzero(np.abs(u - nxt) <= tol))
+    return at if n_top > 2 * n_next else None
+
+
+def detect_saturation(u: np.ndarray) -> Saturation | None:
+    """The clip level of an effort that saturates (a current or force command at its limit).
+
+    Parameters
+    ----------
+    u : ndarray, shape (K,)
+        Logged effort.
+
+    Returns
+    -------
+    Saturation or None
+        None when neither extreme is a clip level.
+    """
+    u = np.asarray(u, dtype=float)
+    scale = float(np.max(np.abs(u), initial=0.0))
+    if not scale > 0.0:
+        return None
+    # a clip writes one and the same value: only (nearly) bit-equal samples are at it
+    tol = 1e-12 * scale
+    hi_mask = _clip_side(u, float(np.max(u)), tol, 1.0) if np.max(u) > 0 else None
+    lo_mask = _clip_side(u, float(np.min(u)), tol, -1.0) if np.min(u) < 0 else None
+    if hi_mask is None and lo_mask is None:
+        return None
+    mask = np.zeros(u.shape[0], dtype=bool)
+    levels = []
+    high = low = None
+    if hi_mask is not None:
+        mask |= hi_mask
+        high = float(np.max(u))
+        levels.append(abs(high))
+    if lo_mask is not None:
+        mask |= lo_mask
+        low = float(np.min(u))
+        levels.append(abs(low))
+    return Saturation(high, low, max(levels), mask)
 
 
 def block_folds(n: int, n_blocks: int = 20, n_folds: int = 2) -> np.ndarray:

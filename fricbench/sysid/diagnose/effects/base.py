@@ -74,6 +74,9 @@ class Effect(ABC):
         The entry its inverse-dynamics regressors are nonlinear in (searched, not solved).
     period_parameter : int or None
         The entry that is a spatial period, m (starts within 2 % of each other are one start).
+    periodic : bool
+        The effect is a periodic term, so a period longer than the stroke is an artefact (a
+        level change); False for a smooth variation along the stroke described by a period.
     n_starts : int
         Starts of its real position fits (more where the error surface is multimodal).
     always_fitted : bool
@@ -91,6 +94,7 @@ class Effect(ABC):
     nonnegative: ClassVar[tuple[int, ...]] = ()
     idim_nonlinear: ClassVar[int | None] = None
     period_parameter: ClassVar[int | None] = None
+    periodic: ClassVar[bool] = True
     n_starts: ClassVar[int] = 1
     always_fitted: ClassVar[bool] = False
 

@@ -1,0 +1,224 @@
+"""Issue 12: honest reports on runs no one here wrote.
+
+The verdict and warnings keys, no non-finite or null number anywhere in a report, the clip
+level of a saturating effort, the derivative filter chosen from a coarse sensor, sensor and fit
+artefacts rejected, a control law that cannot be reproduced, and the description of an
+unexplained residual. Runs are drawn at random from seeds, with their own small loop written
+here (not fricbench's kernel) where the plant does not matter.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose import diagnose
+from fricbench.sysid.diagnose.command import _non_finite
+from fricbench.sysid.diagnose.controllers import ArxController
+from fricbench.sysid.diagnose.models import GreyBox
+from fricbench.sysid.diagnose.parameters import Bounds
+from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.diagnose.search import artefact
+from fricbench.sysid.diagnose.signals import (
+    NoiseFloor,
+    choose_filter,
+    detect_saturation,
+)
+from fricbench.sysid.diagnose.verdict import describe
+from fricbench.sysid.io import validate_arrays
+
+VERDICTS = {"explained", "nothing_to_explain", "not_explained"}
+
+
+def _pd_loop(rng: np.random.Generator, n: int = 6000, ts: float = 1e-3, *, coulomb: float = 0.0,
+             clip: float = np.inf, quantum: float = 0.0, noise: float = 0.0
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A PD position loop on a mass with damping and Coulomb friction (semi-implicit Euler,
+    10 substeps, a stick band): t, reference, logged position, logged (clipped) force."""
+    m = rng.uniform(0.5, 2.0)
+    b = rng.uniform(1.0, 5.0)
+    wn = rng.uniform(30.0, 60.0)
+    kp, kd = m * wn**2, 2 * 0.7 * m * wn - b
+    t = np.arange(n) * ts
+    f = rng.uniform(0.2, 0.6)
+    xr = 0.05 * np.sin(2 * np.pi * f * t) + 0.02 * np.sin(2 * np.pi * 2.3 * f * t)
+    x = v = 0.0
+    xs, us = np.empty(n), np.empty(n)
+    h = ts / 10
+    y_prev = 0.0
+    for k in range(n):
+        y = x + noise * rng.standard_normal()
+        if quantum > 0:
+            y = quantum * np.round(y / quantum)
+        xs[k] = y
+        # the controller sees only the measured position: a backward-difference derivative
+        vr = 0.0 if k == 0 else (xr[k] - xr[k - 1]) / ts
+        u = float(np.clip(kp * (xr[k] - y) + kd * (vr - (y - y_prev) / ts), -clip, clip))
+        y_prev = y
+        us[k] = u
+        for _ in range(10):
+            fv = u - b * v
+            # stick: the friction holds the mass while the force is below the level
+            if abs(v) < 1e-9 and abs(fv) <= coulomb:
+                v = 0.0
+                continue
+            v_new = v + h * (fv - coulomb * np.sign(v if abs(v) > 1e-9 else fv)) / m
+            # with friction, a velocity that would change sign stops (and may stick)
+            v = 0.0 if coulomb > 0 and v != 0.0 and np.sign(v_new) != np.sign(v) else v_new
+            x += h * v
+    return t, xr, xs, us
+
+
+# -- signals --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_clipped_effort_gives_its_level(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    level = rng.uniform(1.0, 50.0)
+    u = 1.6 * level * np.sin(np.linspace(0, 20, 5000)) + 0.05 * level * rng.standard_normal(5000)
+    sat = detect_saturation(np.clip(u, -level, level))
+    assert sat is not None and sat.level == pytest.approx(level)
+    assert sat.mask.sum() > 100
+
+
+@pytest.mark.parametrize("step", [0.0, 0.01, 1.0])
+def test_an_unclipped_effort_has_no_saturation(step: float) -> None:
+    """Even coarsely quantised, the peak of a smooth effort is not a clip level."""
+    u = 37.0 * np.sin(np.linspace(0, 20, 5000)) + 3.0
+    if step:
+        u = step * np.round(u / step)
+    assert detect_saturation(u) is None
+
+
+def test_the_filter_follows_a_coarse_sensor_and_keeps_the_recipe_on_a_fine_one() -> None:
+    ts = 2e-3
+    t = np.arange(10000) * ts
+    x = 1.5 * np.sin(2 * np.pi * 0.1 * t)
+    q = 0.0614  # a 10-bit potentiometer, rad
+    coarse = q * np.round(x / q)
+    fc, decim, source = choose_filter(coarse, ts, NoiseFloor(0.0, q, "quantum"))
+    assert source == "sensor resolution"
+    assert 0.5 < fc < 5.0 and decim > 10
+    fc, decim, source = choose_filter(x, ts, NoiseFloor(1e-7, 0.0))
+    assert (fc, decim, source) == (pytest.approx(50.0), 10, "default")
+
+
+# -- artefacts ------------------------------------------------------------------------------------
+def _cogging_model(period: float) -> GreyBox:
+    p = CL.default_plant(1.0, 1.0)
+    p[CL.I_COGA], p[CL.I_COGB], p[CL.I_COGP] = 0.3, 0.1, period
+    ctrl = ArxController(a=np.zeros(0), b=np.zeros(6), c=np.zeros(4), lead=2)
+    return GreyBox(ctrl, p, ("cogging",))
+
+
+@pytest.mark.parametrize("multiple", [1, 2, 3])
+def test_a_period_at_a_multiple_of_the_quantum_is_the_sensor(multiple: int) -> None:
+    rng = np.random.default_rng(multiple)
+    q = 3.5 * np.pi / 180
+    t = np.arange(4000) * 2e-3
+    x = q * np.round(1.2 * np.sin(t) / q)
+    run = validate_arrays(t, 1.2 * np.sin(t), x)
+    prep = prepare(run)
+    assert prep.noise.quantum == pytest.approx(q, rel=1e-3)
+    b = Bounds(force=1.0, stroke=prep.stroke, v_max=1.2, duration=8.0, ts=2e-3, noise=q / 3.5)
+    why = artefact(_cogging_model(multiple * q * rng.uniform(0.97, 1.03)), "cogging", prep, b)
+    assert why is not None and "quantum" in why
+    assert artefact(_cogging_model(prep.stroke / 3.3), "cogging", prep, b) is None
+    assert "stroke" in str(artefact(_cogging_model(1.5 * prep.stroke), "cogging", prep, b))
+
+
+# -- residual description -------------------------------------------------------------------------
+def test_describe_names_the_structure_of_a_residual() -> None:
+    rng = np.random.default_rng(4)
+    ts, n = 1e-3, 8000
+    t = np.arange(n) * ts
+    x = 0.02 * np.sin(2 * np.pi * 0.5 * t)
+    v = np.gradient(x, ts)
+    noise = 1e-7 * rng.standard_normal(n)
+    assert "drift" in describe(2e-6 * (1 - np.exp(-t / 3)) + noise, x, v, ts)
+    assert "lag" in describe(-2e-3 * v + noise, x, v, ts)
+    assert "position" in describe(1e-6 * np.sin(2 * np.pi * x / 3e-3) + noise, x, v, ts)
+    assert "resonance" in describe(1e-6 * np.sin(2 * np.pi * 37.0 * t) + noise, x, v, ts)
+    assert "no dominant" in describe(noise, x, v, ts)
+
+
+# -- whole diagnoses ------------------------------------------------------------------------------
+def _check_report(out: dict) -> None:
+    assert out["verdict"] in VERDICTS
+    assert isinstance(out["warnings"], list) and all(isinstance(w, str) for w in out["warnings"])
+    assert _non_finite(out) == []
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_a_saturating_loop_is_simulated_with_its_clip(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    t, xr, x, u = _pd_loop(rng, coulomb=0.0)
+    clip = 0.6 * float(np.max(np.abs(u)))
+    t, xr, x, u = _pd_loop(np.random.default_rng(seed), clip=clip)
+    res = diagnose(validate_arrays(t, xr, x, u))
+    out = res.to_dict()
+    _check_report(out)
+    assert out["data"]["effort_saturation"]["level"] == pytest.approx(clip)
+    assert any("saturates" in w for w in out["warnings"])
+    # the clipped law drives the free run: the linear model follows the data closely
+    assert out["position"]["rms_before"] < 0.05 * float(np.std(x))
+
+
+def test_an_effort_the_law_cannot_reproduce_falls_back_to_the_position() -> None:
+    rng = np.random.default_rng(7)
+    t, xr, x, u = _pd_loop(rng, coulomb=0.0, noise=1e-7)
+    garbled = u + 2.0 * float(np.std(u)) * rng.standard_normal(u.shape[0])
+    res = diagnose(validate_arrays(t, xr, x, garbled))
+    out = res.to_dict()
+    _check_report(out)
+    assert res.mode == "position"
+    assert any("not used for the loop" in w for w in out["warnings"])
+
+
+def test_a_linear_pd_loop_gets_no_effect_and_every_number_is_finite() -> None:
+    rng = np.random.default_rng(8)
+    t, xr, x, u = _pd_loop(rng, noise=2e-7)
+    out = diagnose(validate_arrays(t, xr, x, u)).to_dict()
+    _check_report(out)
+    assert out["effects"] == []
+    assert out["verdict"] in {"nothing_to_explain", "not_explained"}
+    assert out["verdict"] != "not_explained" or out["verdict_detail"]["residual"]
+
+
+@pytest.mark.xfail(strict=True, reason="position only, the loop model is a P-PI cascade whose "
+                   "integral rate may not fall below 2 % of its velocity gain: a PD law without "
+                   "integral action is not in the model class, and a force offset stands in "
+                   "(PID position loops are issue 12 item 4, not done)")
+def test_a_linear_pd_loop_gets_no_effect_from_the_position_alone() -> None:
+    rng = np.random.default_rng(8)
+    t, xr, x, _ = _pd_loop(rng, noise=2e-7)
+    out = diagnose(validate_arrays(t, xr, x)).to_dict()
+    _check_report(out)
+    assert out["effects"] == []
+
+
+def test_the_step_run_of_the_dc_motor_is_diagnosed_honestly() -> None:
+    """The shared DC-motor step log, read as logged: no error, no cogging, per-run laws."""
+    import os
+
+    from fricbench.sysid.io import load_run
+
+    root = "/work/shared/data/keiel_dcmotor"
+    if not os.path.isdir(root):
+        pytest.fail(f"{root} is missing: the DC-motor logs are part of the shared data set")
+    kw = dict(time=None, reference=0, position=1, effort=3, sample_time=0.002,
+              position_unit="deg", effort_required=True)
+    sine = load_run(os.path.join(root, "dc_motor_position_control_pid.csv"), **kw)
+    step = load_run(os.path.join(root, "dc_motor_position_control_pid_step.csv"), **kw)
+    for train, other in ((step, sine), (sine, step)):
+        res = diagnose(train, validate=other)
+        out = res.to_dict()
+        _check_report(out)
+        assert "cogging" not in out["effects"]
+        assert out["data"]["filter_chosen_by"] == "sensor resolution"
+        assert "validation run" in out["controller_laws"]["validation"]
+        val = out["validation"]["position"]
+        assert val["rms_after"] <= 1.02 * val["rms_before"]
+        assert math.isfinite(val["rms_after"])
