@@ -5,13 +5,17 @@ Importing :mod:`fricbench` registers every spec under the ``fricbench/`` namespa
     import gymnasium as gym
     import fricbench  # noqa: F401
     env = gym.make("fricbench/PaperAxis-v0")
+    env = gym.make("fricbench/PaperAxisShifted-v0", friction="lugre", effects={"noise_std": 1e-7})
 
-A malformed spec on ``FRICBENCH_ENV_PATH`` is skipped with an :class:`EnvSpecWarning`;
-:func:`check_specs` (``fricbench list --check``) reports every problem.
+Keywords of ``gym.make`` are merged onto the env's spec and checked as spec files are
+(:func:`make_env` lists them; :class:`EnvKeywordError` names each problem). A malformed spec
+on ``FRICBENCH_ENV_PATH`` is skipped with an :class:`EnvSpecWarning`; :func:`check_specs`
+(``fricbench list --check``) reports every problem.
 """
 
 from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.specs import (
+    EnvKeywordError,
     EnvSpecError,
     EnvSpecWarning,
     check_specs,
@@ -20,12 +24,14 @@ from fricbench.gym.specs import (
     make_env,
     make_vector_env,
     register_envs,
+    resolve_overrides,
     spec_files,
 )
 from fricbench.gym.task import ObservationConfig, Randomization, RewardConfig, TaskConfig
 from fricbench.gym.vector import ServoAxisVectorEnv
 
 __all__ = [
+           "EnvKeywordError",
            "EnvSpecError",
            "EnvSpecWarning",
            "ObservationConfig",
@@ -40,5 +46,6 @@ __all__ = [
            "make_env",
            "make_vector_env",
            "register_envs",
+           "resolve_overrides",
            "spec_files",
 ]

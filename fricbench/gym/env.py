@@ -82,13 +82,41 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Arguments
 
-    ``axis`` (:class:`~fricbench.axis.Axis`), ``task`` (:class:`~fricbench.gym.task.TaskConfig`),
-    ``render_mode`` (``"rgb_array"`` or ``"human"``). Registered ids are built from the TOML
-    specs in ``envs/``: ``gymnasium.make("fricbench/PaperAxis-v0")``.
+    ``ServoAxisEnv(axis, task, render_mode)``: ``axis`` (:class:`~fricbench.axis.Axis`),
+    ``task`` (:class:`~fricbench.gym.task.TaskConfig`), ``render_mode`` (``"rgb_array"`` or
+    ``"human"``).
+
+    Registered ids are built from the TOML specs in ``envs/``, and the keywords of
+    ``gymnasium.make`` (and ``make_vec``) are merged onto the env's spec, checked as a spec file
+    is (:func:`fricbench.gym.make_env`)::
+
+        gym.make("fricbench/PaperAxisShifted-v0", friction="lugre")   # keeps fc, fs, vs
+        gym.make("fricbench/PaperAxis-v0", fc=400.0)                  # friction={"fc": 400.0}
+        gym.make("fricbench/PaperAxis-v0", effects={"noise_std": 1e-7},
+                 trajectories=["s_curve", {"id": "curve", "duration": 5.0}])
+
+    * ``controller``, ``mechanics``, ``effects`` (the axis), ``observation``, ``reward`` (the
+      task): dicts merged key by key onto that table of the spec.
+    * ``friction``: a friction model id (a new model keeps the parameters it shares with the
+      spec's, the others take their defaults) or a dict merged onto the spec's friction table
+      (may hold an ``"id"``).
+    * ``trajectories`` (replaces the set), ``action``, ``action_scale``, ``randomize`` (dict of
+      ``[low, high]`` ranges merged onto the spec's).
+    * Any key of these tables on its own (``fc=400.0``, ``kp=200.0``) when one table has it.
+    * A key given as ``None`` takes its default instead of the spec's value.
+    * ``axis`` / ``task``: an :class:`~fricbench.axis.Axis` / :class:`TaskConfig` used in place
+      of the spec's, only if it agrees with every setting the spec file writes; otherwise
+      :class:`~fricbench.gym.EnvKeywordError` lists what differs (pass the changes as
+      keywords, or construct ``ServoAxisEnv`` yourself).
+
+    Unknown keywords (with "did you mean"), wrong types and out-of-range values raise
+    :class:`~fricbench.gym.EnvKeywordError` (a ``ValueError``) naming the key, the value and
+    what was expected. An empty override (``friction={}``) is the env as registered.
 
     ## Version History
 
-    * v0: initial version.
+    * v0: initial version; ``gym.make`` keywords merged onto the spec (they used to be
+      refused, and ``axis=`` replaced the spec's axis whole).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}

@@ -30,6 +30,7 @@ Limits (module constants):
 
 from __future__ import annotations
 
+import copy
 import inspect
 import json
 import math
@@ -40,7 +41,7 @@ import stat
 import tomllib
 import warnings
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import MISSING, dataclass, fields, is_dataclass
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -66,6 +67,8 @@ __all__ = [
     "MAX_SPEC_BYTES",
     "MAX_TRAJECTORIES",
     "PROBE_TS",
+    "OVERRIDE_KEYWORDS",
+    "EnvKeywordError",
     "EnvSpecError",
     "EnvSpecFile",
     "EnvSpecWarning",
@@ -75,6 +78,7 @@ __all__ = [
     "make_env",
     "make_vector_env",
     "register_envs",
+    "resolve_overrides",
     "spec_files",
 ]
 
@@ -134,9 +138,31 @@ class EnvSpecWarning(UserWarning):
     """A malformed env spec was skipped; the message names the file, the key and the problem."""
 
 
+class EnvKeywordError(EnvSpecError):
+    """Keyword arguments of ``gym.make`` (:func:`make_env`, :func:`make_vector_env`) that do not
+    fit an env: unknown keywords (with near matches), values of the wrong type or out of range,
+    or an ``axis``/``task`` object that contradicts the env's spec.
+
+    Parameters
+    ----------
+    env_id : str
+        The env the keywords were given to.
+    problems : iterable of str
+        One message per problem, each naming the keyword (``friction.fc``), the value and what
+        was expected.
+    """
+
+    def __init__(self, env_id: str, problems: Iterable[str]) -> None:
+        self.env_id = env_id
+        super().__init__(f"{env_id} keywords", problems)
+
+    def __reduce__(self) -> tuple[type, tuple[str, list[str]]]:
+        return type(self), (self.env_id, self.problems)
+
+
 @dataclass(frozen=True)
 class EnvSpecFile:
-    """A parsed env spec."""
+    """A parsed env spec; ``data`` holds the file's ``axis`` and ``task`` tables as written."""
 
     id: str
     description: str
@@ -145,6 +171,7 @@ class EnvSpecFile:
     path: str
     benchmark: bool
     fit_on: str
+    data: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
 
 # -- reading and checking one file -------------------------------------------------------------
@@ -192,7 +219,8 @@ def load_spec(path: str | Path, *, check_trajectories: bool = True) -> EnvSpecFi
     if problems or axis is None or task is None:
         raise EnvSpecError(path, problems)
     return EnvSpecFile(cast(str, env_id), description, axis, task, str(path), benchmark,
-                       cast(str, fit_on))
+                       cast(str, fit_on),
+                       data={k: copy.deepcopy(data[k]) for k in ("axis", "task") if k in data})
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -630,39 +658,286 @@ def get_spec(spec_id: str) -> EnvSpecFile:
     return _SPECS[spec_id]
 
 
-def make_env(spec_id: str, render_mode: str | None = None, **overrides: Any) -> gym.Env:
-    """Entry point of every registered id: the scalar env of ``spec_id``.
+# -- keyword overrides of gym.make --------------------------------------------------------------
+OVERRIDE_KEYWORDS = ("controller", "mechanics", "friction", "effects", "trajectories", "action",
+                     "action_scale", "observation", "reward", "randomize")
+"""Keywords of ``gym.make`` (:func:`make_env`, :func:`make_vector_env`) merged onto an env's spec,
+besides ``axis``, ``task`` and the parameters of these tables."""
 
-    ``overrides`` may replace ``axis`` (an :class:`Axis`) or ``task`` (a :class:`TaskConfig`).
-    """
-    from fricbench.gym.env import ServoAxisEnv
-
-    spec = get_spec(spec_id)
-    unknown = set(overrides) - {"axis", "task"}
-    if unknown:
-        raise TypeError(f"make_env: unexpected arguments {sorted(unknown)}; expected axis, task")
-    _check_overrides(spec, overrides)
-    return ServoAxisEnv(axis=overrides.get("axis", spec.axis),
-                        task=overrides.get("task", spec.task), render_mode=render_mode)
+# keyword -> (the table it overrides in the spec, the dataclass of that table)
+_TABLES: dict[str, tuple[str, type]] = {
+    "controller": ("axis", ControllerParams), "mechanics": ("axis", MechanicsParams),
+    "effects": ("axis", Effects), "observation": ("task", ObservationConfig),
+    "reward": ("task", RewardConfig)}
+_EXAMPLES = {"controller": "{'kp': 200.0}", "mechanics": "{'mass': 500.0}",
+             "effects": "{'noise_std': 1e-7}", "observation": "{'preview': 3}",
+             "reward": "{'action_weight': 0.1}", "randomize": "{'fc': [300.0, 400.0]}",
+             "friction": "'lugre' or friction={'fc': 400.0}"}
 
 
-def _check_overrides(spec: EnvSpecFile, overrides: Mapping[str, Any]) -> None:
-    """``axis`` and ``task`` given to ``gym.make`` replace the spec's: they must be an
-    :class:`Axis` and a :class:`TaskConfig` (``None`` would silently give the default axis)."""
+def _plain(value: Any) -> Any:
+    """``value`` as the TOML reader would give it: numpy scalars as Python numbers, tuples as
+    lists, mappings as dicts, a :class:`TrajectoryChoice` as its table; anything else as is
+    (the spec checks then name it)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, TrajectoryChoice):
+        return value.id if not value.params else {"id": value.id, **_plain(value.params)}
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _init_fields(cls: object) -> list[str]:
+    return [f.name for f in fields(cls) if f.init] if is_dataclass(cls) else []
+
+
+def _differences(written: Mapping[str, Any], spec_full: Mapping[str, Any],
+                 given_full: Mapping[str, Any], prefix: str = "") -> list[str]:
+    """``key=given (the spec: value)`` for each key the spec file writes (``written``) whose
+    value in the spec's full table (``spec_full``) the given object's full table
+    (``given_full``) does not have. A friction table always compares the model id."""
+    out = []
+    keys = list(written)
+    if prefix == "friction." and "id" not in keys:
+        keys.insert(0, "id")  # a friction table without an id is Stribeck's
+    for k in keys:
+        w, mine, theirs = written.get(k), spec_full.get(k), given_full.get(k)
+        if isinstance(w, dict) and isinstance(mine, dict):
+            out += _differences(w, mine, theirs if isinstance(theirs, dict) else {},
+                                f"{prefix}{k}.")
+        elif mine != theirs:
+            out.append(f"{prefix}{k}={_show(theirs)} (the spec: {_show(mine)})")
+    return out
+
+
+def _check_objects(spec: EnvSpecFile, overrides: Mapping[str, Any], problems: list[str]) -> None:
+    """``axis`` and ``task`` given to ``gym.make`` must be an :class:`Axis` and a
+    :class:`TaskConfig` (``None`` would silently give the default axis; ``TypeError``), and
+    agree with every setting the spec file writes (problems recorded)."""
     for name, cls in (("axis", Axis), ("task", TaskConfig)):
-        if name in overrides and not isinstance(overrides[name], cls):
-            value = overrides[name]
+        if name not in overrides:
+            continue
+        value = overrides[name]
+        if not isinstance(value, cls):
             raise TypeError(f"{name}={_show(value)} ({type(value).__name__}): expected "
                             f"{'an' if name == 'axis' else 'a'} {cls.__name__}, or leave "
                             f"{name} out for the one of {spec.id}")
+        mine = spec.axis.to_dict() if name == "axis" else spec.task.to_dict()
+        diff = _differences(spec.data.get(name, {}), mine, value.to_dict())
+        if diff:
+            hint = ("friction={'fc': 400.0}, effects={'noise_std': 1e-7}" if name == "axis"
+                    else "trajectories=['s_curve'], reward={'action_weight': 0.1}")
+            problems.append(
+                f"{name}={cls.__name__}(...) contradicts what {spec.id} sets: "
+                f"{', '.join(diff)}; give only what you change, as keywords merged onto the "
+                f"spec ({hint}), or build ServoAxisEnv({name}=...) for "
+                f"{'an axis' if name == 'axis' else 'a task'} of your own")
+
+
+def _user_key(problem: str) -> str:
+    """A spec-file message in keyword terms: ``axis.friction.fc=...`` -> ``friction.fc=...``."""
+    problem = re.sub(r"^(axis|task)\.", "", problem)
+    drawn = re.match(r"randomize\.(\w+): unknown key", problem)
+    if drawn:  # the spec's randomisation of a parameter the new friction model does not have
+        problem += f" (randomize={{{drawn.group(1)!r}: None}} stops drawing it)"
+    return problem
+
+
+def resolve_overrides(spec_id: str, **overrides: Any) -> tuple[Axis, TaskConfig]:
+    """The axis and task of a registered env with keyword overrides merged onto its spec.
+
+    This is what :func:`make_env` and :func:`make_vector_env` build their env from; see
+    :func:`make_env` for the keywords.
+
+    Parameters
+    ----------
+    spec_id : str
+        A registered env id.
+    **overrides
+        The keywords given to ``gym.make``.
+
+    Returns
+    -------
+    axis : Axis
+    task : TaskConfig
+
+    Raises
+    ------
+    EnvKeywordError
+        Listing every problem: unknown keywords (with near matches), values of the wrong type
+        or out of range (the checks of the spec files), an ``axis``/``task`` that contradicts
+        the spec.
+    TypeError
+        If ``axis`` or ``task`` is not an :class:`Axis` or a :class:`TaskConfig`.
+    UnknownIdError
+        If ``spec_id`` is not registered.
+    """
+    spec = get_spec(spec_id)
+    problems: list[str] = []
+    _check_objects(spec, overrides, problems)
+    if problems:
+        raise EnvKeywordError(spec.id, problems)
+    base_axis = overrides.get("axis", spec.axis)
+    base_task = overrides.get("task", spec.task)
+    kw = {k: _plain(v) for k, v in overrides.items() if k not in ("axis", "task")}
+    if not kw:
+        return base_axis, base_task
+    axis_t, task_t = base_axis.to_dict(), base_task.to_dict()
+    tables: dict[str, dict[str, Any]] = {}  # keyword -> its table of overrides
+    for name, value in kw.items():
+        if name == "friction" and isinstance(value, str):
+            tables[name] = {"id": value}
+        elif name in (*_TABLES, "friction", "randomize"):
+            if isinstance(value, dict):
+                tables[name] = dict(value)
+            else:
+                what = ("a friction model id or a dict of its parameters" if name == "friction"
+                        else "a dict of [low, high] ranges" if name == "randomize"
+                        else f"a dict of {_TABLES[name][1].__name__} fields")
+                problems.append(f"{name}={_show(value)} ({type(value).__name__}): expected "
+                                f"{what}, such as {name}={_EXAMPLES[name]}")
+    # the friction model the env ends up with: a new id keeps the parameters it shares
+    friction = dict(axis_t["friction"])
+    new_id = tables.get("friction", {}).get("id", friction["id"])
+    new_cls = None
+    if isinstance(new_id, str) and new_id in friction_registry.ids():
+        new_cls = friction_registry.spec(new_id).load()
+        if new_id != friction["id"]:
+            keep = _init_fields(new_cls)
+            friction = {"id": new_id, **{k: v for k, v in friction.items() if k in keep}}
+    # parameters given on their own (fc=400.0) go to the one table that has them
+    leaves = {name: _init_fields(cls) for name, (_, cls) in _TABLES.items()}
+    leaves["friction"] = [f for f in _init_fields(new_cls) if f != "id"]
+    for name, value in kw.items():
+        if name in OVERRIDE_KEYWORDS:
+            continue
+        owners = [t for t, names in leaves.items() if name in names]
+        if len(owners) == 1:
+            table = tables.setdefault(owners[0], {})
+            if name in table:
+                problems.append(f"{name}={_show(value)} and {owners[0]}={{{name!r}: "
+                                f"{_show(table[name])}}} both set {owners[0]}.{name}; give it "
+                                "once")
+            table[name] = value
+        elif owners:
+            problems.append(f"{name}: a key of {' and '.join(owners)}; give it in one of them "
+                            f"({', '.join(f'{o}={{{name!r}: ...}}' for o in owners)})")
+        else:
+            names = [*OVERRIDE_KEYWORDS, *(n for ns in leaves.values() for n in ns)]
+            problems.append(f"{name}: unknown keyword{did_you_mean(name, names)}; expected "
+                            f"axis, task, {', '.join(OVERRIDE_KEYWORDS)}, or a key of one of "
+                            f"these tables (fc=400.0 is friction={{'fc': 400.0}})")
+    if problems:
+        raise EnvKeywordError(spec.id, problems)
+    # merge: a table key by key (None: back to the default), anything else replaced
+    for name, table in tables.items():
+        in_axis = name == "friction" or name in _TABLES and _TABLES[name][0] == "axis"
+        target = axis_t if in_axis else task_t
+        merged = friction if name == "friction" else dict(target[name])
+        for k, v in table.items():
+            if v is None:
+                merged.pop(k, None)
+            else:
+                merged[k] = copy.deepcopy(v)
+        target[name] = merged
+    axis_t["friction"] = friction
+    for name in ("trajectories", "action", "action_scale"):
+        if name in kw:
+            task_t[name] = copy.deepcopy(kw[name])
+    axis = _check_axis(axis_t, problems)
+    task = _check_task(task_t, axis, problems)
+    if axis is not None and task is not None and (
+            "trajectories" in kw or axis.controller.ts != base_axis.controller.ts):
+        _probe_trajectories(task, axis, problems)
+    if problems or axis is None or task is None:
+        raise EnvKeywordError(spec.id, [_user_key(p) for p in problems])
+    return axis, task
+
+
+def make_env(spec_id: str, render_mode: str | None = None, **overrides: Any) -> gym.Env:
+    """Entry point of every registered id: the scalar env of ``spec_id``.
+
+    ``gym.make(spec_id, **overrides)`` lands here. Every keyword is merged onto the env's
+    spec and the result is checked as a spec file is (the same checks, the same messages), so
+    ``gym.make("fricbench/PaperAxisShifted-v0", effects={"noise_std": 1e-7})`` keeps the env's
+    +30 % friction.
+
+    Parameters
+    ----------
+    spec_id : str
+        A registered env id (``fricbench/PaperAxis-v0``).
+    render_mode : {"rgb_array", "human"}, optional
+    **overrides
+        ``controller``, ``mechanics``, ``effects``, ``observation``, ``reward`` : dict
+            Merged key by key onto that table of the spec (``controller={"kp": 200.0}``).
+        ``friction`` : str or dict
+            A friction model id (``"lugre"``) or a dict of parameters merged onto the spec's
+            friction table (``{"fc": 400.0}``, or ``{"id": "lugre", "sigma0": 1e8}``). A new
+            model keeps the parameters it shares with the spec's (``fc``, ``fs``, ``vs`` from
+            Stribeck to LuGre); its others take their defaults.
+        ``trajectories`` : list
+            Replaces the trajectory set: ids or ``{"id": ..., **params}`` dicts.
+        ``action`` : {"force", "offset"}; ``action_scale`` : float
+        ``randomize`` : dict
+            ``{parameter: [low, high]}`` merged onto the spec's friction randomisation.
+        ``fc=400.0``, ``kp=200.0``, ... : a key of one of these tables on its own, when exactly
+            one table has it (``error_scale`` is in ``observation`` and ``reward``: give the
+            table).
+        In a dict, or on its own, a key given as ``None`` takes the table's default instead
+        of the spec's (``randomize={"fc": None}`` stops drawing ``fc``).
+        ``axis`` : Axis; ``task`` : TaskConfig
+            Used in place of the spec's, provided they agree with every setting the spec file
+            writes (otherwise :class:`EnvKeywordError` lists the differences: give the changes
+            as the keywords above instead); the other keywords are merged onto them.
+
+    Returns
+    -------
+    ServoAxisEnv
+
+    Raises
+    ------
+    EnvKeywordError
+        A ``ValueError`` listing every problem with the keywords: unknown keywords (with near
+        matches), wrong types or values, an ``axis``/``task`` that contradicts the spec.
+    TypeError
+        ``axis`` or ``task`` that is not an :class:`Axis` or a :class:`TaskConfig`.
+    """
+    from fricbench.gym.env import ServoAxisEnv
+
+    axis, task = resolve_overrides(spec_id, **overrides)
+    return ServoAxisEnv(axis=axis, task=task, render_mode=render_mode)
+
+
+_VECTOR_ARGS = ("reference_pool", "seed", "render_mode")  # of ServoAxisVectorEnv besides these
 
 
 def make_vector_env(spec_id: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:
-    """Vector entry point: the native :class:`ServoAxisVectorEnv` of ``spec_id``."""
+    """Vector entry point: the native :class:`ServoAxisVectorEnv` of ``spec_id``.
+
+    ``gym.make_vec(spec_id, num_envs, vectorization_mode="vector_entry_point", **kwargs)``
+    lands here.
+
+    Parameters
+    ----------
+    spec_id : str
+        A registered single-axis env id.
+    num_envs : int
+        Number of sub-envs.
+    **kwargs
+        ``reference_pool``, ``seed`` and ``render_mode`` of :class:`ServoAxisVectorEnv`; every
+        other keyword is merged onto the env's spec as in :func:`make_env` (``friction``,
+        ``effects``, ``fc``, ``trajectories``, ``axis``, ...).
+
+    Raises
+    ------
+    EnvKeywordError
+        As :func:`make_env`.
+    """
     from fricbench.gym.vector import ServoAxisVectorEnv
 
-    spec = get_spec(spec_id)
-    _check_overrides(spec, kwargs)
-    kwargs.setdefault("axis", spec.axis)
-    kwargs.setdefault("task", spec.task)
-    return ServoAxisVectorEnv(num_envs=num_envs, **kwargs)
+    args = {k: kwargs.pop(k) for k in _VECTOR_ARGS if k in kwargs}
+    axis, task = resolve_overrides(spec_id, **kwargs)
+    return ServoAxisVectorEnv(num_envs=num_envs, axis=axis, task=task, **args)

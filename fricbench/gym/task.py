@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from functools import lru_cache
 from typing import Any
 
@@ -216,6 +216,26 @@ class TaskConfig:
         if "randomize" in kw and not isinstance(kw["randomize"], Randomization):
             kw["randomize"] = Randomization({k: tuple(v) for k, v in kw["randomize"].items()})
         return cls(**kw)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[task]`` table of an env TOML that :meth:`from_dict` turns back into this task.
+
+        Returns
+        -------
+        dict
+            ``trajectories`` (ids, or ``{"id": ..., **params}`` tables), ``action``,
+            ``action_scale``, ``observation`` and ``reward`` (every field), ``randomize``
+            (``{parameter: [low, high]}``).
+        """
+        return {
+            "trajectories": [c.id if not c.params else {"id": c.id, **c.params}
+                             for c in self.trajectories],
+            "action": self.action,
+            "action_scale": self.action_scale,
+            "observation": asdict(self.observation),
+            "reward": asdict(self.reward),
+            "randomize": {k: [lo, hi] for k, (lo, hi) in self.randomize.ranges.items()},
+        }
 
 
 @lru_cache(maxsize=64)

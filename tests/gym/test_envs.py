@@ -227,8 +227,11 @@ def test_vector_env_matches_scalar_env(env_id: str) -> None:
     spec = get_spec(env_id)
     task = replace(spec.task, trajectories=(spec.task.trajectories[0],), randomize=type(
         spec.task.randomize)())
-    venv = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", task=task,
-                        reference_pool=1)
+    # the spec's first trajectory, friction not redrawn: keywords merged onto the spec
+    venv = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point",
+                        trajectories=[spec.task.trajectories[0]],
+                        randomize=dict.fromkeys(spec.task.randomize.ranges), reference_pool=1)
+    assert venv.unwrapped.task == task and venv.unwrapped.axis == spec.axis
     vobs, _ = venv.reset(seed=0)
     env = ServoAxisEnv(axis=spec.axis, task=task)
     sobs, _ = env.reset(seed=0)
@@ -241,10 +244,8 @@ def test_vector_env_matches_scalar_env(env_id: str) -> None:
 
 
 def test_vector_env_autoresets() -> None:
-    spec = get_spec("fricbench/PaperAxis-v0")
-    task = replace(spec.task, trajectories=(type(spec.task.trajectories[0])("s_curve"),))
     venv = gym.make_vec("fricbench/PaperAxis-v0", num_envs=2,
-                        vectorization_mode="vector_entry_point", task=task)
+                        vectorization_mode="vector_entry_point", trajectories=["s_curve"])
     venv.reset(seed=0)
     n = 2540
     truncs = 0
