@@ -146,7 +146,57 @@ def _git_commit() -> str:
 
 # run_benchmark parameter -> the bench option that sets it
 _BENCH_OPTIONS = {"env_ids": "--envs", "comp_ids": "--compensators",
-                  "trajectories": "--trajectories", "seeds": "--seeds"}
+                  "trajectories": "--trajectories", "seeds": "--seeds",
+                  "comp_kwargs": "--compensator-kwargs", "comp_config": "--compensator-config"}
+
+
+def _toml_value(text: str) -> Any:
+    """``text`` read as a TOML value (``0.3``, ``true``, ``"a b"``, ``[1, 2]``); text that is
+    not one TOML value (``runs/sac.json``, ``sac``) is that string."""
+    import tomllib
+
+    try:
+        table = tomllib.loads(f"v = {text}")
+    except tomllib.TOMLDecodeError:
+        return text
+    return table["v"] if list(table) == ["v"] else text
+
+
+def _compensator_kwargs(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]],
+                                                             set[str], set[str]]:
+    """The compensator settings of ``--compensator-config`` then ``--compensator-kwargs`` (which
+    win key by key), and where each came from: the ``id`` and ``id:key`` strings of each
+    option."""
+    from fricbench.bench.runner import BenchConfigError, read_compensator_config
+
+    settings: dict[str, dict[str, Any]] = {}
+    from_file: set[str] = set()
+    if args.compensator_config:
+        settings = read_compensator_config(args.compensator_config)
+        from_file = {*settings, *(f"{c}:{k}" for c, kw in settings.items() for k in kw)}
+    from_cli: set[str] = set()
+    for item in args.compensator_kwargs:
+        target, eq, value = item.partition("=")
+        cid, colon, key = target.rpartition(":")  # ids may hold a colon: precomp:tf:gain=0.5
+        if not (eq and colon and cid and key.strip()):
+            raise BenchConfigError("comp_kwargs", item,
+                                   "expected ID:KEY=VALUE, such as ilc:gain=0.3")
+        settings.setdefault(cid, {})[key.strip()] = _toml_value(value.strip())
+        from_cli |= {cid, f"{cid}:{key.strip()}"}
+    return settings, from_cli, from_file
+
+
+def _bench_option(exc: Any, args: argparse.Namespace, from_cli: set[str],
+                  from_file: set[str]) -> str:
+    """The option a :class:`BenchConfigError` is about (with the file, for the config)."""
+    if exc.parameter == "comp_config":
+        return _BENCH_OPTIONS["comp_config"]
+    if exc.parameter != "comp_kwargs":
+        return _BENCH_OPTIONS[exc.parameter]
+    where = [opt for opt, seen in (("--compensator-kwargs", from_cli),
+                                   (f"--compensator-config {args.compensator_config}", from_file))
+             if exc.value in seen]
+    return " and ".join(where) or "--compensator-kwargs"
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -157,18 +207,22 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     envs = args.envs or env_ids(benchmark_only=True)
     comps = args.compensators or compensator_registry.ids()
-    try:  # every id and seed, before anything is fitted
-        tasks = plan_benchmark(envs, comps, args.seeds, args.trajectories)
+    from_cli: set[str] = set()
+    from_file: set[str] = set()
+    try:  # every id, seed and setting, before anything is fitted
+        comp_kwargs, from_cli, from_file = _compensator_kwargs(args)
+        tasks = plan_benchmark(envs, comps, args.seeds, args.trajectories, comp_kwargs)
     except BenchConfigError as exc:
-        print(f"fricbench bench: error: {_BENCH_OPTIONS[exc.parameter]} {exc.value}: "
-              f"{exc.problem}", file=sys.stderr)
+        print(f"fricbench bench: error: {_bench_option(exc, args, from_cli, from_file)} "
+              f"{exc.value}: {exc.problem}", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
     records = []
     interrupted = False
     try:
         for rec in run_benchmark(envs, comps, args.seeds, args.trajectories,
-                                 backend=args.backend, n_jobs=args.jobs, address=args.address):
+                                 backend=args.backend, n_jobs=args.jobs, address=args.address,
+                                 comp_kwargs=comp_kwargs):
             records.append(rec)
     except KeyboardInterrupt:
         interrupted = True
@@ -295,6 +349,15 @@ def build_parser() -> argparse.ArgumentParser:
                     "written).")
     p.add_argument("--envs", nargs="+", help="env ids (default: every benchmark env)")
     p.add_argument("--compensators", nargs="+", help="compensator ids (default: all)")
+    p.add_argument("--compensator-kwargs", action="append", default=[], metavar="ID:KEY=VALUE",
+                   help="a constructor keyword of one compensator, such as ilc:gain=0.3 or "
+                        "rl-sac:policy=runs/sac/policy.json; VALUE is read as TOML (a number, "
+                        "true or false, a quoted string, an array), other text as a string; "
+                        "repeat the option for more; wins over --compensator-config")
+    p.add_argument("--compensator-config", metavar="FILE.toml",
+                   help="constructor keywords per compensator: a TOML table per id, such as "
+                        "'[ilc]' then 'gain = 0.3' (quote ids with a colon: [\"precomp:tf\"]). "
+                        "The settings of each run are in the tables and CSV")
     p.add_argument("--trajectories", nargs="+", help="override each env's trajectory set")
     p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2],
                    help="seeds, each a separate run (default: 0 1 2)")

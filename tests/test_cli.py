@@ -15,8 +15,9 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
+from fricbench._validation import check_range
 from fricbench.bench import runner
-from fricbench.cli import build_parser, main
+from fricbench.cli import _toml_value, build_parser, main
 from fricbench.compensators import Compensator, compensator_registry
 from fricbench.gym import env_ids
 from fricbench.predictors import predictor_registry
@@ -210,3 +211,91 @@ def test_bench_ctrl_c_writes_finished_runs_and_exits_130(
     with (tmp_path / "PaperAxis-v0.csv").open() as fh:
         assert [(r["compensator"], r["status"]) for r in csv.DictReader(fh)] == [("none", "ok")]
     assert not list(tmp_path.glob(".*"))  # no temp file left
+
+
+class _Gain(Compensator):
+    """Acts ``gain`` every step (its effort shows the gain it was built with)."""
+
+    id: ClassVar[str] = "test-gain"
+
+    def __init__(self, *, gain: float = 0.0, policy: str = "") -> None:
+        super().__init__()
+        check_range("gain", gain, -1.0, 1.0)
+        self.gain = gain
+        self.policy = policy
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        return np.full(1, self.gain)
+
+
+@pytest.fixture
+def gain_compensator() -> Iterator[None]:
+    compensator_registry.register(_Gain.id, _Gain)
+    yield
+    compensator_registry.unregister(_Gain.id)
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("0.3", 0.3), ("3", 3), ("true", True), ("-1e-4", -1e-4), ('"a b"', "a b"),
+    ("[1, 2]", [1, 2]), ("runs/sac/policy.json", "runs/sac/policy.json"), ("sac", "sac"),
+    ("1\nx = 2", "1\nx = 2"), ("", ""),
+])
+def test_compensator_kwargs_values_are_toml(text: str, value: object) -> None:
+    assert _toml_value(text) == value and type(_toml_value(text)) is type(value)
+
+
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["--compensator-kwargs", "test-gain-0.5"],
+     "--compensator-kwargs test-gain-0.5: expected ID:KEY=VALUE, such as ilc:gain=0.3"),
+    (["--compensator-kwargs", "test-gian:gain=0.5"],
+     "--compensator-kwargs test-gian: unknown compensator id; did you mean 'test-gain'?"),
+    (["--compensator-kwargs", "test-gain:gian=0.5"],
+     "--compensator-kwargs test-gain:gian: not a keyword of compensator 'test-gain'; did you "
+     "mean 'gain'?; accepted: gain, policy"),
+    (["--compensator-kwargs", "test-gain:gain=2"],
+     "--compensator-kwargs test-gain: gain=2: expected a value in [-1, 1]"),
+    (["--compensator-kwargs", "kalman:gain=0.5"],
+     "--compensator-kwargs kalman: settings for a compensator that is not run"),
+    (["--compensator-config", "{cfg}"], "--compensator-config {cfg}: gain = 0.5: expected a "
+                                        "table"),
+    (["--compensator-config", "{missing}"], "--compensator-config {missing}: cannot read"),
+    (["--compensator-config", "{typo}"], "--compensator-config {typo} test-gain:gian: not a "
+                                         "keyword"),
+    (["--compensator-config", "{typo}", "--compensator-kwargs", "test-gain:gian=0.1"],
+     "--compensator-kwargs and --compensator-config {typo} test-gain:gian: not a keyword"),
+])
+def test_bench_checks_compensator_settings_before_fitting(
+        argv: list[str], expected: str, tmp_path: Path, gain_compensator: None,
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    def no_fit(*args: object) -> None:
+        raise AssertionError("fitted before checking the arguments")
+
+    monkeypatch.setattr(runner, "fit_compensators", no_fit)
+    files = {"cfg": tmp_path / "cfg.toml", "missing": tmp_path / "missing.toml",
+             "typo": tmp_path / "typo.toml"}
+    files["cfg"].write_text("gain = 0.5\n")
+    files["typo"].write_text("[test-gain]\ngian = 0.5\n")
+    names = {k: str(v) for k, v in files.items()}
+    out = tmp_path / "out"
+    assert main(["bench", *_ONE_RUN, "--compensators", "none", "test-gain", "--out", str(out),
+                 *(a.format(**names) for a in argv)]) == 2
+    err = capsys.readouterr().err
+    assert expected.format(**names) in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+def test_bench_records_the_compensator_settings(tmp_path: Path, gain_compensator: None) -> None:
+    cfg = tmp_path / "settings.toml"
+    cfg.write_text('[test-gain]\ngain = 0.2\npolicy = "from-file"\n')
+    assert main(["bench", *_ONE_RUN, "--compensators", "none", "test-gain",
+                 "--compensator-config", str(cfg), "--compensator-kwargs", "test-gain:gain=0.5",
+                 "--out", str(tmp_path)]) == 0
+    with (tmp_path / "PaperAxis-v0.csv").open() as fh:
+        rows = {r["compensator"]: r for r in csv.DictReader(fh)}
+    # the command line wins key by key; the file's other keys stay
+    assert json.loads(rows["test-gain"]["compensator_kwargs"]) == {"gain": 0.5,
+                                                                   "policy": "from-file"}
+    assert float(rows["test-gain"]["effort_rms"]) == pytest.approx(0.5 * 600.0, rel=1e-3)
+    assert rows["none"]["compensator_kwargs"] == ""
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert '`test-gain`: `{"gain": 0.5, "policy": "from-file"}`' in md

@@ -7,6 +7,10 @@ keeps the last good row of the cell, and the failure goes to ``<env>.failures.cs
 cell is left). A cell that never succeeded is in the table as a ``failed`` row. The ``Failed
 runs`` section of the ``.md`` lists both kinds.
 
+Each row records the constructor keywords its compensator was made with beyond the registered
+defaults (``compensator_kwargs``, JSON; ``fricbench bench --compensator-kwargs``), and the
+``.md`` lists them under "Compensator settings", so a table says what settings produced it.
+
 Per-step ``act`` times depend on the machine and its load, so they are kept out of these
 tables: they go to ``timings/<env>.csv`` (untracked: ``leaderboards/timings/`` is in
 ``.gitignore``), and a re-run of the same code on the same seeds rewrites the tables with the
@@ -23,6 +27,7 @@ import contextlib
 import csv
 import fcntl
 import io
+import json
 import math
 import os
 from collections import defaultdict
@@ -45,9 +50,11 @@ __all__ = [
 ]
 
 _KEY = ("env", "compensator", "trajectory", "seed")
+# compensator_kwargs: the constructor keywords of the run beyond the registered defaults, as
+# JSON with sorted keys ("" for none)
 CSV_COLUMNS = (*_KEY, "status", "max_um", "rms_um", "reversal_peak_um",
                "circular_deviation_um", "reversal_spike_um", "improvement_max_pct", "effort_rms",
-               "effort_unit", "reason")
+               "effort_unit", "reason", "compensator_kwargs")
 # untracked: timings/<env>.csv
 TIMING_COLUMNS = (*_KEY, "step_us")
 # <env>.failures.csv: the latest failure of each cell not run successfully since
@@ -80,9 +87,31 @@ def _record_rows(records: Iterable[EpisodeRecord]) -> list[dict[str, str]]:
             "circular_deviation_um": _um(r.circular_deviation),
             "reversal_spike_um": _um(r.reversal_spike), "improvement_max_pct": "",
             "effort_rms": eff, "effort_unit": {"N": "N", "m": "um"}.get(r.effort_unit, ""),
-            "reason": r.reason,
+            "reason": r.reason, "compensator_kwargs": _settings_text(r.compensator_kwargs),
         })
     return rows
+
+
+def _settings_text(kwargs: dict[str, object]) -> str:
+    """Constructor keywords as one-line JSON with sorted keys; ``""`` for none."""
+    return json.dumps(kwargs, sort_keys=True, default=str) if kwargs else ""
+
+
+def _settings_lines(rows: list[dict[str, str]], comps: Sequence[str]) -> list[str]:
+    """The ``Compensator settings`` bullet of the table: each compensator's keywords (all the
+    distinct ones, when rows of several runs with other settings are merged)."""
+    lines = []
+    for c in comps:
+        kinds = sorted({r.get("compensator_kwargs", "") for r in rows if r["compensator"] == c},
+                       key=lambda k: (k == "", k))  # the defaults last
+        if kinds != [""]:
+            shown = ", ".join(f"`{k}`" if k else "the defaults" for k in kinds)
+            mixed = " (rows from runs with different settings)" if len(kinds) > 1 else ""
+            lines.append(f"  - `{c}`: {shown}{mixed}\n")
+    if not lines:
+        return []
+    return ["- Compensator settings (constructor keywords over the registered defaults; the "
+            "CSV's compensator_kwargs column):\n", *lines]
 
 
 def _timing_rows(records: Iterable[EpisodeRecord]) -> list[dict[str, str]]:
@@ -171,6 +200,7 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     out.write(f"- Made by: `{command}`\n- Commit: `{commit}`\n- Seeds: {seeds}\n")
     if fit_on != env_id:
         out.write(f"- Generalisation case: compensators fitted on `{fit_on}`\n")
+    out.writelines(_settings_lines(rows, comps))
     out.write("- Metric: median over seeds of max |e| in um (actual tracking error; contour "
               "error for two axes), and its cut against `none` in %. Raw rows: the CSV beside "
               "this file.\n\n")

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import os
 import time
+import tomllib
 import traceback
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,6 +17,8 @@ from fricbench.bench.metrics import score_run
 from fricbench.compensators import (
     PRECOMP_PREFIX,
     Compensator,
+    compensator_id_kwargs,
+    compensator_parameters,
     compensator_registry,
     make_compensator,
 )
@@ -33,9 +37,16 @@ __all__ = [
     "bench_env",
     "fit_compensators",
     "plan_benchmark",
+    "read_compensator_config",
     "run_benchmark",
     "run_episode",
 ]
+
+MAX_CONFIG_BYTES = 2**20
+"""Largest compensator settings file read by :func:`read_compensator_config`, bytes."""
+
+CompKwargs = Mapping[str, Mapping[str, Any]]
+"""Constructor keywords per compensator id: ``{"ilc": {"gain": 0.3}}``."""
 
 
 class BenchConfigError(ValueError):
@@ -43,7 +54,9 @@ class BenchConfigError(ValueError):
 
     Raised by :func:`plan_benchmark` (and so by :func:`run_benchmark`) before anything is
     fitted. ``parameter`` is the argument name (``env_ids``, ``comp_ids``, ``trajectories``,
-    ``seeds``), ``value`` the offending item, ``problem`` the explanation.
+    ``seeds``, ``comp_kwargs``; ``comp_config`` for :func:`read_compensator_config`), ``value``
+    the offending item (for ``comp_kwargs``, the compensator id or ``"<id>:<keyword>"``),
+    ``problem`` the explanation.
     """
 
     def __init__(self, parameter: str, value: object, problem: str) -> None:
@@ -65,7 +78,9 @@ class BenchTask:
 
 @dataclass
 class EpisodeRecord:
-    """The outcome of one scored episode (SI units; ``status`` is ``"ok"`` or ``"failed"``)."""
+    """The outcome of one scored episode (SI units; ``status`` is ``"ok"`` or ``"failed"``;
+    ``compensator_kwargs``: the constructor keywords the compensator was made with, beyond its
+    registered defaults)."""
 
     env: str
     compensator: str
@@ -82,6 +97,7 @@ class EpisodeRecord:
     effort_unit: str = ""
     step_time: float = float("nan")
     n_steps: int = 0
+    compensator_kwargs: dict[str, Any] = field(default_factory=dict)
     trace_t: np.ndarray | None = field(default=None, repr=False)
     trace_error: np.ndarray | None = field(default=None, repr=False)
 
@@ -150,9 +166,10 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
     return rec
 
 
-def _fit_one(comp_id: str, fit_env: str, seed: int) -> tuple[Compensator | None, str]:
+def _fit_one(comp_id: str, fit_env: str, seed: int,
+             kwargs: Mapping[str, Any] | None = None) -> tuple[Compensator | None, str]:
     try:
-        comp = make_compensator(comp_id)
+        comp = make_compensator(comp_id, **(kwargs or {}))
         comp.fit(fit_env, seed=seed)
         return comp, ""
     except Exception as exc:  # noqa: BLE001 - recorded on every row of this compensator
@@ -164,13 +181,16 @@ MapFn = Callable[[Callable[..., Any], list[tuple[Any, ...]]], Iterable[tuple[int
 
 
 def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
-                     map_fn: MapFn) -> dict[tuple[str, str], tuple[Compensator | None, str]]:
+                     map_fn: MapFn, comp_kwargs: CompKwargs | None = None,
+                     ) -> dict[tuple[str, str], tuple[Compensator | None, str]]:
     """Fit each compensator once per training env (``fit_on`` of each benchmark env).
 
-    ``map_fn(fn, arglist)`` yields ``(index, fn(*arglist[index]))`` in any order.
+    ``map_fn(fn, arglist)`` yields ``(index, fn(*arglist[index]))`` in any order;
+    ``comp_kwargs`` gives constructor keywords per compensator id.
     """
     pairs = sorted({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
-    results = dict(map_fn(_fit_one, [(c, f, seed) for c, f in pairs]))
+    kwargs = comp_kwargs or {}
+    results = dict(map_fn(_fit_one, [(c, f, seed, dict(kwargs.get(c, {}))) for c, f in pairs]))
     return {pair: results[i] for i, pair in enumerate(pairs)}
 
 
@@ -232,18 +252,107 @@ def _n_axes(env_id: str, trajectory: str | TrajectoryChoice) -> int:
     return reference_for(TrajectoryChoice.parse(trajectory), ts, np.random.default_rng(0)).n_axes
 
 
+def read_compensator_config(path: str | Path) -> dict[str, dict[str, Any]]:
+    """Constructor keywords per compensator from a TOML file: one table per compensator id.
+
+    ::
+
+        [ilc]
+        gain = 0.3
+        iterations = 20
+
+        ["precomp:tf"]          # ids with a colon are quoted
+        advance = 2
+
+    The keywords themselves are checked by :func:`plan_benchmark`.
+
+    Raises
+    ------
+    BenchConfigError
+        ``parameter="comp_config"``, ``value`` the path: a file that cannot be read, is larger
+        than :data:`MAX_CONFIG_BYTES`, is not UTF-8 TOML, or holds a value outside a table.
+    """
+    try:
+        with Path(path).open("rb") as fh:
+            raw = fh.read(MAX_CONFIG_BYTES + 1)
+    except OSError as exc:
+        raise BenchConfigError("comp_config", str(path),
+                               f"cannot read ({exc.strerror or exc})") from None
+    if len(raw) > MAX_CONFIG_BYTES:
+        raise BenchConfigError("comp_config", str(path),
+                               f"larger than {MAX_CONFIG_BYTES} bytes (MAX_CONFIG_BYTES)")
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise BenchConfigError("comp_config", str(path),
+                               f"not UTF-8 text (byte {exc.start})") from None
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:
+        raise BenchConfigError("comp_config", str(path), f"invalid TOML: {exc}") from None
+    for key, value in data.items():
+        if not isinstance(value, dict):
+            raise BenchConfigError("comp_config", str(path),
+                                   f"{key} = {value!r}: expected a table of one compensator's "
+                                   f"settings, [{key}] followed by keyword = value lines")
+    return data
+
+
+def _check_comp_kwargs(comp_kwargs: CompKwargs, comp_ids: Sequence[str],
+                       known: Sequence[str]) -> None:
+    """Each id known and run, each keyword one its constructor takes, and the compensator
+    built with them (its own checks)."""
+    if not isinstance(comp_kwargs, Mapping):
+        raise BenchConfigError("comp_kwargs", comp_kwargs,
+                               "expected a mapping of compensator id to {keyword: value}")
+    for cid, kwargs in comp_kwargs.items():
+        if cid not in known:
+            raise BenchConfigError("comp_kwargs", cid, f"unknown compensator id"
+                                                       f"{did_you_mean(cid, known)} (expected "
+                                                       f"one of {', '.join(known)})")
+        if cid not in comp_ids:
+            raise BenchConfigError("comp_kwargs", cid, "settings for a compensator that is not "
+                                                       f"run (running {', '.join(comp_ids)}); "
+                                                       "run it too, or drop its settings")
+        if not isinstance(kwargs, Mapping):
+            raise BenchConfigError("comp_kwargs", cid, f"{kwargs!r}: expected a mapping of "
+                                                       "keyword to value")
+        accepted = compensator_parameters(cid)
+        fixed = compensator_id_kwargs(cid)
+        for key in kwargs:
+            if key in fixed:
+                raise BenchConfigError("comp_kwargs", f"{cid}:{key}",
+                                       f"the id {cid!r} names {key}={fixed[key]!r}; it cannot "
+                                       "change under this id (choose the compensator id "
+                                       "registered with the one you want)")
+            if accepted is not None and key not in accepted:
+                takes = (f"accepted: {', '.join(accepted)}" if accepted
+                         else "it takes no keywords")
+                raise BenchConfigError("comp_kwargs", f"{cid}:{key}",
+                                       f"not a keyword of compensator {cid!r}"
+                                       f"{did_you_mean(key, accepted)}; {takes}")
+        try:
+            make_compensator(cid, **kwargs)
+        except (TypeError, ValueError) as exc:
+            raise BenchConfigError("comp_kwargs", cid, str(exc)) from None
+
+
 def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Sequence[int],
-                   trajectories: Sequence[str] | None = None) -> list[BenchTask]:
-    """Check every id and seed, then list the episodes :func:`run_benchmark` scores.
+                   trajectories: Sequence[str] | None = None,
+                   comp_kwargs: CompKwargs | None = None) -> list[BenchTask]:
+    """Check every id, seed and compensator setting, then list the episodes
+    :func:`run_benchmark` scores.
 
     Nothing is fitted or run: a typo fails here in a fraction of a second, not after the fits.
+    Each compensator with settings in ``comp_kwargs`` is built once with them, so that its
+    constructor checks the values.
 
     Raises
     ------
     BenchConfigError
         Naming the parameter and the value: an unknown env, compensator or trajectory id (with
         near matches), a trajectory whose number of axes an env does not drive, a seed that is
-        not an integer >= 0, or an empty list.
+        not an integer >= 0, or an empty list; in ``comp_kwargs``, settings of an unknown
+        compensator or one not run, a keyword its constructor does not take (with near
+        matches and the accepted keywords), or a value its constructor refuses (its message).
     """
     known_envs = registered_env_ids()
     # precomp:<predictor id> names a pre-compensation with any registered predictor
@@ -265,6 +374,8 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
     for seed in seeds:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise BenchConfigError("seeds", seed, "expected an integer >= 0")
+    if comp_kwargs is not None:
+        _check_comp_kwargs(comp_kwargs, comp_ids, known_comps)
     tasks = []
     for env_id in env_ids:
         spec = get_spec(env_id)
@@ -287,7 +398,8 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
 def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
                   seeds: Sequence[int], trajectories: Sequence[str] | None = None,
                   backend: str = "joblib", n_jobs: int = 2, address: str | None = None,
-                  fit_seed: int = 1000, progress: bool = True) -> Iterator[EpisodeRecord]:
+                  fit_seed: int = 1000, progress: bool = True,
+                  comp_kwargs: CompKwargs | None = None) -> Iterator[EpisodeRecord]:
     """Fit, then run every (env, compensator, trajectory, seed); yields records as they finish.
 
     Every argument is checked by :func:`plan_benchmark` before anything is fitted. Records come
@@ -308,6 +420,9 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
         (``address`` of a running cluster, or a local instance when None).
     fit_seed : int
         Seed of every ``fit`` (training data differ from every evaluation episode).
+    comp_kwargs : mapping, optional
+        Constructor keywords per compensator id (``{"ilc": {"gain": 0.3}}``), over the
+        registered defaults; each record carries those of its compensator.
 
     Raises
     ------
@@ -318,17 +433,19 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
 
     if backend not in ("joblib", "ray"):
         raise ValueError(f"backend={backend!r}: expected 'joblib' or 'ray'")
-    tasks = plan_benchmark(env_ids, comp_ids, seeds, trajectories)
+    tasks = plan_benchmark(env_ids, comp_ids, seeds, trajectories, comp_kwargs)
+    settings = {c: dict(kw) for c, kw in (comp_kwargs or {}).items() if kw}
     n_fits = len({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
     bar = tqdm(total=len(tasks) + n_fits, desc="bench", unit="run", disable=not progress)
     try:
         tick = bar.update
         map_fn = _joblib_map(n_jobs, tick) if backend == "joblib" else _ray_map(address, tick)
-        fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn)
+        fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn, settings)
         first_seed = min(seeds)
         args = [(*fitted[(t.compensator, get_spec(t.env).fit_on)], t, t.seed == first_seed)
                 for t in tasks]
         for _, rec in map_fn(_run_task, args):
+            rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
             yield rec
     finally:
         bar.close()

@@ -6,6 +6,7 @@ parties add theirs through the entry-point group ``fricbench.compensators``.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 from fricbench.compensators.base import (
@@ -22,6 +23,8 @@ __all__ = [
     "CompensatorError",
     "EpisodeContext",
     "NotFittedError",
+    "compensator_id_kwargs",
+    "compensator_parameters",
     "compensator_registry",
     "feature_index",
     "make_compensator",
@@ -71,3 +74,53 @@ def make_compensator(id: str, **kwargs: Any) -> Compensator:
         comp = compensator_registry.make(id, **kwargs)
     comp.id = id
     return comp
+
+
+def compensator_id_kwargs(id: str) -> dict[str, Any]:
+    """The keywords that ``id`` itself names and that cannot change under it.
+
+    The registered defaults given as a name (``algo="sac"`` of ``rl-sac``, ``predictor="tf"``
+    of ``tf-precomp``; ``predictor`` of ``precomp:<predictor id>``): a leaderboard row of
+    ``rl-sac`` must not come from a PPO policy. Numbers (gains, iterations) stay settable.
+
+    Raises
+    ------
+    UnknownIdError
+        If ``id`` is not registered (with near matches).
+    """
+    if isinstance(id, str) and id.startswith(PRECOMP_PREFIX):
+        return {"predictor": id[len(PRECOMP_PREFIX):]}
+    return {k: v for k, v in compensator_registry.spec(id).kwargs.items() if isinstance(v, str)}
+
+
+def compensator_parameters(id: str) -> list[str] | None:
+    """The keyword arguments a compensator's settings may give for ``id``.
+
+    Read from the constructor's signature, without those the id names
+    (:func:`compensator_id_kwargs`).
+
+    Returns
+    -------
+    list of str or None
+        The names in the constructor's order; ``None`` when it takes ``**kwargs`` (any name).
+
+    Raises
+    ------
+    UnknownIdError
+        If ``id`` is not registered (with near matches).
+    """
+    fixed = compensator_id_kwargs(id)
+    if isinstance(id, str) and id.startswith(PRECOMP_PREFIX):
+        from fricbench.compensators.precomp import Precompensation
+
+        factory: Any = Precompensation
+    else:
+        factory = compensator_registry.spec(id).load()
+    try:
+        params = inspect.signature(factory).parameters.values()
+    except (TypeError, ValueError):  # a builtin without a signature: nothing to check against
+        return None
+    if any(p.kind is p.VAR_KEYWORD for p in params):
+        return None
+    return [p.name for p in params
+            if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and p.name not in fixed]

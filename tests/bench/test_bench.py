@@ -8,13 +8,15 @@ import os
 import shutil
 import signal
 import time
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 
+from fricbench._validation import check_range
 from fricbench.bench import runner
 from fricbench.bench.leaderboard import CSV_COLUMNS, write_leaderboards
 from fricbench.bench.metrics import reversal_indices, score_run
@@ -23,6 +25,7 @@ from fricbench.bench.runner import (
     BenchTask,
     EpisodeRecord,
     plan_benchmark,
+    read_compensator_config,
     run_benchmark,
     run_episode,
 )
@@ -227,8 +230,8 @@ def test_rewriting_a_committed_table_drops_only_its_timing_column(tmp_path: Path
                         effort_rms=float(r["effort_rms"]), effort_unit="N", step_time=1.0)
     spec = get_spec(PAPER)
     write_leaderboards([rec], tmp_path, command, commit, {PAPER: (spec.description, PAPER)})
-    assert _rows(tmp_path / "PaperAxis-v0.csv") == [
-        {c: row[c] for c in CSV_COLUMNS} for row in old_rows]
+    assert _rows(tmp_path / "PaperAxis-v0.csv") == [  # a column added since: empty
+        {c: row.get(c, "") for c in CSV_COLUMNS} for row in old_rows]
     act = next(ln for ln in old_md if ln.startswith("| compensator |")).split(" | ")
     drop = act.index("act time (us/step) |") if "act time (us/step) |" in act else None
     expected = []
@@ -288,3 +291,98 @@ def test_every_registered_compensator_id_is_listed() -> None:
     for cid in ("none", "tf-precomp", "tf-lstm-precomp", "greybox-precomp", "friction-ff",
                 "kalman", "ilc", "rl-sac", "rl-ppo"):
         assert cid in compensator_registry.ids()
+
+
+class _Constant(Compensator):
+    """Acts ``level`` every step: its effort shows which level it was built with."""
+
+    id: ClassVar[str] = "test-constant"
+
+    def __init__(self, *, level: float = 0.0, note: str = "") -> None:
+        super().__init__()
+        check_range("level", level, -1.0, 1.0)
+        self.level = level
+        self.note = note
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        return np.full(1, self.level)
+
+
+@pytest.fixture
+def constant_compensator() -> Iterator[None]:
+    compensator_registry.register(_Constant.id, _Constant)
+    yield
+    compensator_registry.unregister(_Constant.id)
+
+
+@pytest.mark.parametrize(("comp_kwargs", "value", "message"), [
+    ({"test-constnt": {"level": 0.1}}, "test-constnt", "unknown compensator id; did you mean "
+                                                       "'test-constant'?"),
+    ({"kalman": {"gain": 0.5}}, "kalman", "settings for a compensator that is not run"),
+    ({"test-constant": {"levle": 0.1}}, "test-constant:levle",
+     "not a keyword of compensator 'test-constant'; did you mean 'level'?; accepted: level, "
+     "note"),
+    ({"none": {"gain": 1.0}}, "none:gain", "it takes no keywords"),
+    ({"rl-sac": {"algo": "ppo"}}, "rl-sac:algo", "the id 'rl-sac' names algo='sac'"),
+    ({"test-constant": {"level": 2.0}}, "test-constant", "level=2.0: expected a value in [-1, 1]"),
+    ({"test-constant": {"level": "high"}}, "test-constant", "level='high': expected a real "
+                                                            "number"),
+    ({"test-constant": 0.5}, "test-constant", "expected a mapping of keyword to value"),
+])
+def test_plan_checks_compensator_kwargs(constant_compensator: None, comp_kwargs: dict[str, Any],
+                                        value: str, message: str) -> None:
+    comps = ["none", "test-constant", "rl-sac"]
+    with pytest.raises(BenchConfigError) as info:
+        plan_benchmark([PAPER], comps, [0], ["s_curve"], comp_kwargs)
+    assert (info.value.parameter, info.value.value) == ("comp_kwargs", value)
+    assert message in info.value.problem, info.value.problem
+
+
+def test_compensator_kwargs_reach_the_constructor_and_the_records(
+        constant_compensator: None, tmp_path: Path) -> None:
+    recs = list(run_benchmark([PAPER], ["none", "test-constant"], [0], ["s_curve"], n_jobs=1,
+                              progress=False, comp_kwargs={"test-constant": {"level": 0.5}}))
+    mine = next(r for r in recs if r.compensator == "test-constant")
+    assert mine.status == "ok" and mine.compensator_kwargs == {"level": 0.5}
+    assert mine.effort_rms == pytest.approx(0.5 * get_spec(PAPER).task.action_scale, rel=1e-3)
+    assert next(r for r in recs if r.compensator == "none").compensator_kwargs == {}
+    write_leaderboards(recs, tmp_path, "cmd", "abc", DESC)
+    rows = {r["compensator"]: r for r in _rows(tmp_path / "PaperAxis-v0.csv")}
+    assert rows["test-constant"]["compensator_kwargs"] == '{"level": 0.5}'
+    assert rows["none"]["compensator_kwargs"] == ""
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert '  - `test-constant`: `{"level": 0.5}`\n' in md
+    # a later run with the defaults replaces the row; the table says the settings are mixed
+    write_leaderboards([replace(mine, seed=1, compensator_kwargs={})], tmp_path, "cmd", "abc",
+                       DESC)
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert ('`test-constant`: `{"level": 0.5}`, the defaults (rows from runs with different '
+            'settings)') in md
+
+
+def test_no_settings_no_settings_line(tmp_path: Path) -> None:
+    write_leaderboards([_rec("none", 0, 20.0)], tmp_path, "cmd", "abc", DESC)
+    assert "Compensator settings" not in (tmp_path / "PaperAxis-v0.md").read_text()
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (None, "cannot read"),
+    (b"[ilc\n", "invalid TOML"),
+    (b"gain = 0.3\n", "gain = 0.3: expected a table of one compensator's settings"),
+    (b"\xff\xfe", "not UTF-8"),
+])
+def test_compensator_config_file_problems(tmp_path: Path, content: bytes | None,
+                                          message: str) -> None:
+    path = tmp_path / "settings.toml"
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(BenchConfigError, match=message) as info:
+        read_compensator_config(path)
+    assert (info.value.parameter, info.value.value) == ("comp_config", str(path))
+
+
+def test_compensator_config_file(tmp_path: Path) -> None:
+    path = tmp_path / "settings.toml"
+    path.write_text('[ilc]\ngain = 0.3\nkeep = "last"\n["precomp:tf"]\nadvance = 2\n')
+    assert read_compensator_config(path) == {"ilc": {"gain": 0.3, "keep": "last"},
+                                             "precomp:tf": {"advance": 2}}
