@@ -802,12 +802,15 @@ def resolve_overrides(spec_id: str, **overrides: Any) -> tuple[Axis, TaskConfig]
     # the friction model the env ends up with: a new id keeps the parameters it shares
     friction = dict(axis_t["friction"])
     new_id = tables.get("friction", {}).get("id", friction["id"])
+    new_id = "stribeck" if new_id is None else new_id  # as in a spec's friction table
     new_cls = None
     if isinstance(new_id, str) and new_id in friction_registry.ids():
         new_cls = friction_registry.spec(new_id).load()
         if new_id != friction["id"]:
             keep = _init_fields(new_cls)
             friction = {"id": new_id, **{k: v for k, v in friction.items() if k in keep}}
+    else:
+        _check_friction({"id": new_id}, problems)  # names it, with near matches
     # parameters given on their own (fc=400.0) go to the one table that has them
     leaves = {name: _init_fields(cls) for name, (_, cls) in _TABLES.items()}
     leaves["friction"] = [f for f in _init_fields(new_cls) if f != "id"]
@@ -825,13 +828,14 @@ def resolve_overrides(spec_id: str, **overrides: Any) -> tuple[Axis, TaskConfig]
         elif owners:
             problems.append(f"{name}: a key of {' and '.join(owners)}; give it in one of them "
                             f"({', '.join(f'{o}={{{name!r}: ...}}' for o in owners)})")
-        else:
+        elif new_cls is not None:  # (with an unknown friction id, reported, it may be one of
+            # the parameters of the model meant)
             names = [*OVERRIDE_KEYWORDS, *(n for ns in leaves.values() for n in ns)]
             problems.append(f"{name}: unknown keyword{did_you_mean(name, names)}; expected "
                             f"axis, task, {', '.join(OVERRIDE_KEYWORDS)}, or a key of one of "
                             f"these tables (fc=400.0 is friction={{'fc': 400.0}})")
     if problems:
-        raise EnvKeywordError(spec.id, problems)
+        raise EnvKeywordError(spec.id, [_user_key(p) for p in problems])
     # merge: a table key by key (None: back to the default), anything else replaced
     for name, table in tables.items():
         in_axis = name == "friction" or name in _TABLES and _TABLES[name][0] == "axis"

@@ -96,6 +96,8 @@ def test_task_keywords() -> None:
 def test_none_restores_a_default_and_stops_a_draw() -> None:
     axis, _ = _made(SHIFTED, friction={"fs": None})
     assert axis.friction == replace(SHIFTED_FRICTION, fs=Stribeck().fs)
+    axis, _ = _made("fricbench/PaperAxisLuGre-v0", friction={"id": None}, fc=400.0)
+    assert axis.friction == Stribeck(fc=400.0)  # the default model; LuGre's fs, vs kept
     spec = get_spec(RANDOM)
     _, task = _made(RANDOM, randomize={"fc": None, "vs": [1e-3, 2e-3]})
     assert dict(task.randomize.ranges) == {"fs_ratio": spec.task.randomize.ranges["fs_ratio"],
@@ -149,6 +151,8 @@ def test_an_axis_or_task_that_contradicts_the_spec_is_refused() -> None:
                                    "one of fc, fs, vs, delta, fv"),
     ({"friction": "stribek"}, "friction.id='stribek': unknown friction model; did you mean "
                               "'stribeck'?"),
+    ({"friction": "stribek", "fc": 400.0}, "friction.id='stribek': unknown friction model; did "
+                                           "you mean 'stribeck'?"),
     ({"effects": {"quantisation": 1e-6}}, "effects.quantisation: unknown key; did you mean "
                                           "'quantization'?"),
     ({"trajectories": ["m_serail"]}, "trajectories[0]: unknown trajectory id 'm_serail'; did "
