@@ -61,9 +61,14 @@ class ServoAxisVectorEnv(VectorEnv):
     clipping, reference look-up, the axis kernel, observation, reward and truncation.
     References come from a pool generated at construction (``reference_pool`` per seeded
     trajectory choice, e.g. ``random``), and each sub-env draws from the pool at reset.
-    Observations, actions and rewards are those of the scalar env; autoreset follows
-    Gymnasium's ``NEXT_STEP`` mode. Actions have shape ``(num_envs, 1)`` (or ``(num_envs,)``)
-    and are real numbers; ``step`` before ``reset`` raises ``RuntimeError``.
+    Observations, actions and rewards are those of the scalar env. Autoreset follows
+    Gymnasium's ``NEXT_STEP`` mode by default; in ``SAME_STEP`` mode (what stable-baselines3
+    expects, :mod:`fricbench.gym.sb3`) a sub-env that truncates is reset within the same step:
+    the step returns its reset observation, and ``info["final_obs"]`` (an object array, ``None``
+    for the sub-envs that go on) holds the last observation of the finished episode, with the
+    mask ``info["_final_obs"]`` (and an empty ``final_info``, masked alike). Actions have shape
+    ``(num_envs, 1)`` (or ``(num_envs,)``) and are real numbers; ``step`` before ``reset``
+    raises ``RuntimeError``.
 
     Parameters
     ----------
@@ -74,7 +79,11 @@ class ServoAxisVectorEnv(VectorEnv):
     reference_pool : int
         References generated per seeded trajectory choice.
     seed : int
-        Seed of the reference pool.
+        Seed of the reference pool, and of the generator of the per-episode draws (reference
+        choice, randomised parameters, noise) until ``reset(seed=...)`` replaces it.
+    autoreset_mode : AutoresetMode or str
+        ``AutoresetMode.NEXT_STEP`` (default) or ``AutoresetMode.SAME_STEP`` (or their values,
+        ``"NextStep"``, ``"SameStep"``).
 
     Raises
     ------
@@ -88,8 +97,15 @@ class ServoAxisVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, axis: Axis | None = None,
                  task: TaskConfig | None = None, reference_pool: int = 4, seed: int = 0,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP) -> None:
         num_envs = check_int("num_envs", num_envs, 1)
+        modes = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+        if autoreset_mode not in modes and autoreset_mode not in [m.value for m in modes]:
+            raise ValueError(f"autoreset_mode={autoreset_mode!r}: expected one of "
+                             f"{', '.join(str(m) for m in modes)} (or their values)")
+        self.autoreset_mode = AutoresetMode(autoreset_mode)
+        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         reference_pool = check_int("reference_pool", reference_pool, 1)
         seed = check_int("seed", seed, 0)
         if render_mode is not None:
@@ -219,8 +235,28 @@ class ServoAxisVectorEnv(VectorEnv):
             raise ValueError(f"actions[{-1 - code}] = {a[-1 - code]!r}: contains NaN or inf")
         if code > 0:
             self._raise_diverged(code - 1)
-        self._autoreset = truncated.copy()
-        return obs, rewards, np.zeros(self.num_envs, dtype=bool), truncated, {}
+        info: dict[str, Any] = {}
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            self._autoreset = truncated.copy()
+        elif truncated.any():
+            info = self._reset_finished(obs, truncated)
+        return obs, rewards, np.zeros(self.num_envs, dtype=bool), truncated, info
+
+    def _reset_finished(self, obs: np.ndarray, done: np.ndarray) -> dict[str, Any]:
+        """``SAME_STEP`` autoreset: reset the ``done`` rows and put their reset observation
+        into ``obs``; return the info holding their final observation."""
+        idx = np.flatnonzero(done)
+        final = np.full(self.num_envs, None, dtype=object)
+        for i in idx:
+            final[i] = obs[i].copy()
+        self._reset_rows(done)
+        fresh = np.empty((idx.size, self._nf))
+        fill_observation(self._batch.S[idx], self._batch.P[idx], self._X, self._V, self._A,
+                         self._ref_id[idx], self._k[idx], self._offsets, self._prev_action[idx],
+                         self._scales, fresh)
+        obs[idx] = fresh
+        return {"final_obs": final, "_final_obs": done.copy(), "final_info": {},
+                "_final_info": done.copy()}
 
     def _raise_diverged(self, row: int) -> None:
         # re-run the failing row through AxisBatch.run, which raises with time, state and cause

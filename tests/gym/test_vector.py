@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from gymnasium.vector import AutoresetMode
 
 from fricbench.axis import SimulationDivergedError
 from fricbench.axis import kernel as K
@@ -141,3 +142,40 @@ def test_bad_reset_and_constructor_arguments_are_refused() -> None:
         ServoAxisVectorEnv(num_envs=True, axis=spec.axis, task=spec.task)
     with pytest.raises(TypeError, match="axis='stribeck': expected an Axis"):
         ServoAxisVectorEnv(num_envs=2, axis="stribeck", task=spec.task)  # type: ignore[arg-type]
+
+
+def test_same_step_autoreset_matches_next_step_without_the_held_step() -> None:
+    # friction redrawn per episode and seeded references: the draws must come in the same order
+    spec = get_spec("fricbench/RandomFriction-v0")
+    task = replace(spec.task, trajectories=(TrajectoryChoice("random", {"duration": 0.05}),))
+    same = ServoAxisVectorEnv(num_envs=3, axis=spec.axis, task=task, autoreset_mode="SameStep")
+    nxt = ServoAxisVectorEnv(num_envs=3, axis=spec.axis, task=task)
+    assert same.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    assert nxt.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    o_same, _ = same.reset(seed=5)
+    o_next, _ = nxt.reset(seed=5)
+    rng = np.random.default_rng(0)
+    finished = 0
+    for _ in range(160):
+        act = rng.uniform(-1.0, 1.0, (3, 1)).astype(np.float32)
+        o_same, r_same, _, t_same, info = same.step(act)
+        o_next, r_next, _, t_next, _ = nxt.step(act)
+        np.testing.assert_array_equal(r_same, r_next)
+        np.testing.assert_array_equal(t_same, t_next)
+        if t_same.any():
+            finished += 1
+            np.testing.assert_array_equal(info["_final_obs"], t_same)
+            np.testing.assert_array_equal(np.stack(info["final_obs"][t_same]), o_next[t_same])
+            assert all(o is None for o in info["final_obs"][~t_same])
+            o_next, r_next, _, _, _ = nxt.step(act)  # NEXT_STEP's held step
+            assert (r_next[t_same] == 0.0).all()
+        else:
+            assert info == {}
+        np.testing.assert_array_equal(o_same, o_next)
+    assert finished >= 2
+
+
+def test_unknown_autoreset_mode_is_refused() -> None:
+    spec = get_spec("fricbench/PaperAxis-v0")
+    with pytest.raises(ValueError, match="autoreset_mode='Disabled'"):
+        ServoAxisVectorEnv(num_envs=2, axis=spec.axis, task=spec.task, autoreset_mode="Disabled")
