@@ -12,7 +12,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``train`` subcommand to ``subparsers`` (from ``add_subparsers``)."""
-    from fricbench.compensators.train import ALGOS
+    from fricbench.compensators.train import ALGOS, VEC_ENVS
 
     p = subparsers.add_parser(
         "train", help="train an RL compensator's policy (weights + JSON)",
@@ -23,6 +23,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("compensator", choices=sorted(ALGOS), help="compensator id")
     p.add_argument("--env", default="fricbench/RandomFriction-v0",
                    help="training env id (default: %(default)s)")
+    p.add_argument("--vec-env", choices=VEC_ENVS, default="native",
+                   help="native: fricbench's vector env, all sub-envs in one compiled step; "
+                        "dummy: stable-baselines3's DummyVecEnv of scalar envs, how the "
+                        "shipped policies were trained (default: %(default)s)")
     p.add_argument("--steps", type=int, default=200_000,
                    help="environment steps (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0,
@@ -43,12 +47,12 @@ def run(args: argparse.Namespace) -> int:
     from fricbench.compensators.train import default_out, train_agent
 
     out = args.out or str(default_out(args.compensator, args.seed))
-    argv = ["fricbench", "train", args.compensator, "--env", args.env, "--steps",
-            str(args.steps), "--seed", str(args.seed), "--out", str(out)]
+    argv = ["fricbench", "train", args.compensator, "--env", args.env, "--vec-env",
+            args.vec_env, "--steps", str(args.steps), "--seed", str(args.seed), "--out", str(out)]
     try:
         res = train_agent(args.compensator, env_id=args.env, steps=args.steps, seed=args.seed,
                           out=out, command=shlex.join(argv), verbose=args.verbose,
-                          overwrite=args.force)
+                          overwrite=args.force, vec_env=args.vec_env)
     except FileExistsError as exc:
         print(f"fricbench train: error: {exc.filename} exists; pass --force to overwrite it, "
               "or --out to write elsewhere", file=sys.stderr)

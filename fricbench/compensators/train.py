@@ -1,14 +1,19 @@
 """Training of the RL compensators: ``fricbench train rl-sac --env ... --steps N --seed S``.
 
 The agent learns on the training env (default ``fricbench/RandomFriction-v0``: friction
-redrawn per episode, seeded ``random`` references; never an evaluation reference). At the end
-the deterministic actor is exported as plain weights plus a JSON
-(:mod:`fricbench.compensators.rl_policy`) that records the exact command, seed, step count,
-wall time, library versions and hyperparameters, and a validation score on fresh *training*
-references (the nominal axis of the training env, with and without the policy).
+redrawn per episode, seeded ``random`` references; never an evaluation reference), stepped as
+fricbench's native vector env through :class:`~fricbench.gym.sb3.SB3VecEnv` (each episode
+draws its reference from a pool of ``reference_pool`` generated at the start), or as
+stable-baselines3's ``DummyVecEnv`` of scalar envs (``vec_env="dummy"``, a fresh reference
+every episode: how the shipped policies were trained). At the end the deterministic actor is
+exported as plain weights plus a JSON (:mod:`fricbench.compensators.rl_policy`) that records
+the exact command, seed, step count, wall time, library versions and hyperparameters, and a
+validation score on fresh *training* references (the nominal axis of the training env, with
+and without the policy).
 
 Everything runs in one process with ``torch.set_num_threads(1)``; with the same seed, command
-and library versions, a run reproduces the shipped weights bit for bit on the same machine.
+and library versions, a run reproduces its weights bit for bit on the same machine (the
+shipped ones with ``--vec-env dummy``, the route their recorded commands took).
 """
 
 from __future__ import annotations
@@ -36,20 +41,26 @@ from fricbench.compensators.training_data import env_setup, training_references
 from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.task import Randomization, n_features
 
-__all__ = ["ALGOS", "HYPERPARAMS", "TrainResult", "default_out", "train_agent", "export_actor",
-           "validation_score"]
+__all__ = ["ALGOS", "HYPERPARAMS", "VEC_ENVS", "TrainResult", "default_out", "train_agent",
+           "export_actor", "make_training_env", "validation_score"]
 
 #: compensator id -> stable-baselines3 algorithm
 ALGOS = {"rl-sac": "sac", "rl-ppo": "ppo"}
 
-#: default hyperparameters (constructor keywords of the stable-baselines3 class, plus n_envs)
+#: how the training env is vectorised: fricbench's native vector env, or stable-baselines3's
+#: ``DummyVecEnv`` of scalar envs
+VEC_ENVS = ("native", "dummy")
+
+#: default hyperparameters (constructor keywords of the stable-baselines3 class, plus the
+#: training env's ``n_envs`` and, for the native vector env, ``reference_pool``: references
+#: generated at the start for the episodes to draw from)
 HYPERPARAMS: dict[str, dict[str, Any]] = {
-    "sac": {"n_envs": 1, "learning_rate": 3e-4, "buffer_size": 300_000,
+    "sac": {"n_envs": 1, "reference_pool": 64, "learning_rate": 3e-4, "buffer_size": 300_000,
             "learning_starts": 5_000, "batch_size": 256, "tau": 0.005, "gamma": 0.98,
             "train_freq": 1, "gradient_steps": 1, "ent_coef": "auto",
             "policy_kwargs": {"net_arch": [64, 64]}},
-    "ppo": {"n_envs": 8, "learning_rate": 3e-4, "n_steps": 1024, "batch_size": 256,
-            "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.95, "clip_range": 0.2,
+    "ppo": {"n_envs": 8, "reference_pool": 64, "learning_rate": 3e-4, "n_steps": 1024,
+            "batch_size": 256, "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.95, "clip_range": 0.2,
             "ent_coef": 0.0, "policy_kwargs": {"net_arch": {"pi": [64, 64], "vf": [64, 64]},
                                                "log_std_init": -1.0}},
 }
@@ -152,6 +163,39 @@ def validation_score(json_path: str | Path, env_id: str, *, seed: int,
             "improvement_pct": 100.0 * (1.0 - float(np.mean(with_pol)) / float(np.mean(none)))}
 
 
+def make_training_env(env_id: str, *, n_envs: int, seed: int, vec_env: str = "native",
+                      reference_pool: int = 64) -> Any:
+    """The stable-baselines3 ``VecEnv`` an agent trains on, with episode statistics.
+
+    Parameters
+    ----------
+    env_id : str
+        Training env.
+    n_envs : int
+        Parallel sub-envs.
+    seed : int
+        Seed of the env resets (and of the native env's reference pool).
+    vec_env : {"native", "dummy"}
+        ``"native"``: :func:`fricbench.gym.sb3.make_sb3_vec_env` in a ``VecMonitor`` (all
+        sub-envs in one compiled step; each episode's reference drawn from a pool of
+        ``reference_pool``). ``"dummy"``: ``make_vec_env`` (a ``DummyVecEnv`` of scalar envs in
+        ``Monitor``; a fresh reference every episode).
+    reference_pool : int
+        References per seeded trajectory choice of the native env.
+    """
+    check_choice("vec_env", vec_env, VEC_ENVS)
+    if vec_env == "dummy":
+        from stable_baselines3.common.env_util import make_vec_env
+
+        return make_vec_env(env_id, n_envs=n_envs, seed=seed)
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from fricbench.gym.sb3 import make_sb3_vec_env
+
+    return VecMonitor(make_sb3_vec_env(env_id, n_envs, seed=seed,
+                                       reference_pool=reference_pool))
+
+
 def _versions() -> dict[str, str]:
     out = {}
     for pkg in ("stable-baselines3", "torch", "gymnasium", "numpy", "fricbench"):
@@ -165,7 +209,8 @@ def _versions() -> dict[str, str]:
 def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
                 steps: int = 200_000, seed: int = 0, out: str | Path | None = None,
                 command: str = "", overrides: Mapping[str, Any] | None = None,
-                verbose: int = 0, overwrite: bool = False) -> TrainResult:
+                verbose: int = 0, overwrite: bool = False,
+                vec_env: str = "native") -> TrainResult:
     """Train ``comp_id``'s agent on ``env_id`` and write the policy files.
 
     Parameters
@@ -190,6 +235,9 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     overwrite : bool
         Replace existing policy files; without it an existing file is an error, raised before
         any training.
+    vec_env : {"native", "dummy"}
+        How the training env is vectorised (:func:`make_training_env`); the shipped policies
+        were trained with ``"dummy"``.
 
     Raises
     ------
@@ -199,6 +247,7 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     check_choice("comp_id", comp_id, tuple(ALGOS))
     check_int("steps", steps, 1, 100_000_000)
     check_int("seed", seed, 0)
+    check_choice("vec_env", vec_env, VEC_ENVS)
     algo = ALGOS[comp_id]
     json_path, weights_name = _out_paths(default_out(comp_id, seed) if out is None else out,
                                          comp_id)
@@ -206,14 +255,15 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
         if path.exists() and not overwrite:
             raise FileExistsError(errno.EEXIST, "policy file exists; not overwritten", str(path))
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.env_util import make_vec_env
 
     torch.set_num_threads(1)
     hp = dict(HYPERPARAMS[algo])
     hp.update(overrides or {})
     n_envs = int(hp.pop("n_envs"))
+    pool = int(hp.pop("reference_pool"))
     _, task = env_setup(env_id)
-    vec = make_vec_env(env_id, n_envs=n_envs, seed=seed)
+    vec = make_training_env(env_id, n_envs=n_envs, seed=seed, vec_env=vec_env,
+                            reference_pool=pool)
     cls = SAC if algo == "sac" else PPO
     model = cls("MlpPolicy", vec, seed=seed, device="cpu", verbose=verbose, **hp)
     t0 = time.perf_counter()
@@ -229,14 +279,17 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     # the exported actor must reproduce stable-baselines3's deterministic action
     probe = np.random.default_rng(seed).standard_normal((64, obs_dim)).astype(np.float32)
     sb3_action, _ = model.predict(probe, deterministic=True)
-    cmd = command or (f"fricbench train {comp_id} --env {env_id} --steps {steps} "
-                      f"--seed {seed} --out {json_path.with_suffix('')}")
+    cmd = command or (f"fricbench train {comp_id} --env {env_id} --vec-env {vec_env} "
+                      f"--steps {steps} --seed {seed} --out {json_path.with_suffix('')}")
+    env_record = {"vec_env": vec_env, "n_envs": n_envs}
+    if vec_env == "native":
+        env_record["reference_pool"] = pool
     spec = PolicySpec(
         algo=algo, obs_dim=obs_dim, act_dim=act_dim,
         net_arch=tuple(arch), activation=activation, squash=squash, action_mode=task.action,
         action_scale=float(task.action_scale), env_id=env_id, weights=weights_name,
         training={"command": cmd, "seed": seed, "steps": steps, "seconds": round(seconds, 1),
-                  "n_envs": n_envs, "hyperparameters": _jsonable(hp),
+                  **env_record, "hyperparameters": _jsonable(hp),
                   "versions": _versions()})
     save_policy(json_path, spec, mlp)
     exported = load_policy(json_path)(probe)

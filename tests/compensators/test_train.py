@@ -9,20 +9,26 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import stable_baselines3.common.env_util
+from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
 from fricbench.cli import main
 from fricbench.compensators import make_compensator, train
 from fricbench.compensators.command import add_parser
-from fricbench.compensators.train import TrainResult, train_agent
+from fricbench.compensators.train import TrainResult, make_training_env, train_agent
+from fricbench.gym.sb3 import SB3VecEnv
 
 
 def test_tiny_ppo_run(tmp_path: Path) -> None:
     res = train_agent("rl-ppo", steps=256, seed=1, out=tmp_path / "tiny",
-                      overrides={"n_envs": 2, "n_steps": 64, "batch_size": 64, "n_epochs": 1})
+                      overrides={"n_envs": 2, "n_steps": 64, "batch_size": 64, "n_epochs": 1,
+                                 "reference_pool": 2})
     assert res.json_path == tmp_path / "tiny.json" and res.weights_path.is_file()
     data = json.loads(res.json_path.read_text())
     assert data["training"]["seed"] == 1 and "validation" in data["training"]
+    assert data["training"]["vec_env"] == "native"
+    assert data["training"]["n_envs"] == 2 and data["training"]["reference_pool"] == 2
+    assert "reference_pool" not in data["training"]["hyperparameters"]
+    assert " --vec-env native " in data["training"]["command"]
     comp = make_compensator("rl-ppo", policy=res.json_path).fit("fricbench/PaperAxis-v0")
     assert comp.policy_.spec.algo == "ppo"
 
@@ -32,7 +38,22 @@ def test_cli_parser() -> None:
     add_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["train", "rl-sac", "--steps", "10", "--seed", "3"])
     assert args.compensator == "rl-sac" and args.steps == 10 and args.seed == 3
-    assert args.env == "fricbench/RandomFriction-v0"
+    assert args.env == "fricbench/RandomFriction-v0" and args.vec_env == "native"
+    args = parser.parse_args(["train", "rl-ppo", "--vec-env", "dummy"])
+    assert args.vec_env == "dummy"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["train", "rl-ppo", "--vec-env", "subproc"])
+
+
+def test_training_env_is_the_native_vector_env_or_a_dummy_vec_env() -> None:
+    native = make_training_env("fricbench/PaperAxis-v0", n_envs=3, seed=0, reference_pool=1)
+    assert isinstance(native, VecMonitor) and isinstance(native.venv, SB3VecEnv)
+    assert native.num_envs == 3
+    dummy = make_training_env("fricbench/PaperAxis-v0", n_envs=2, seed=0, vec_env="dummy")
+    assert isinstance(dummy, DummyVecEnv) and dummy.num_envs == 2
+    assert dummy.observation_space == native.observation_space
+    with pytest.raises(ValueError, match="vec_env='subproc'"):
+        make_training_env("fricbench/PaperAxis-v0", n_envs=2, seed=0, vec_env="subproc")
 
 
 class _Trained(Exception):
@@ -41,10 +62,10 @@ class _Trained(Exception):
 
 @pytest.fixture
 def no_training(monkeypatch: pytest.MonkeyPatch) -> None:
-    def make_vec_env(*args: object, **kwargs: object) -> None:
+    def make_training_env(*args: object, **kwargs: object) -> None:
         raise _Trained
 
-    monkeypatch.setattr(stable_baselines3.common.env_util, "make_vec_env", make_vec_env)
+    monkeypatch.setattr(train, "make_training_env", make_training_env)
 
 
 @pytest.mark.parametrize("existing", [".json", ".pt"])
@@ -79,9 +100,12 @@ def test_cli_default_out_is_new_in_current_directory(
 
     monkeypatch.setattr(train, "train_agent", fake_train)
     assert main(["train", "rl-sac", "--seed", "3"]) == 0
-    (kwargs,) = calls
+    assert main(["train", "rl-sac", "--seed", "3", "--vec-env", "dummy"]) == 0
+    kwargs, dummy = calls
     assert Path(kwargs["out"]) == Path("policies/rl-sac-seed3")
     assert kwargs["command"].endswith("--seed 3 --out policies/rl-sac-seed3")
+    assert kwargs["vec_env"] == "native" and dummy["vec_env"] == "dummy"
+    assert "--vec-env dummy" in dummy["command"]
     assert shipped.read_text() == "shipped"
 
 
