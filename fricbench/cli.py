@@ -335,7 +335,8 @@ def build_parser() -> argparse.ArgumentParser:
         "perf", help="measure simulation speed on this machine",
         description="Measure simulation speed (steps or samples per second) of the env, the "
                     "vector env and simulate, beside Gymnasium's Pendulum-v1 and "
-                    "python-control measured in the same run for comparison.")
+                    "python-control measured in the same run for comparison, and PPO "
+                    "training speed on the vector env beside stable-baselines3's DummyVecEnv.")
     p.add_argument("--json", metavar="FILE.json", help="write the figures to this JSON file")
     p.add_argument("--quick", action="store_true", help="shorter runs (noisier)")
     p.set_defaults(func=_cmd_perf)

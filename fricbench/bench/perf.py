@@ -1,6 +1,8 @@
 """``fricbench perf``: throughput of the env, the vector env and ``simulate``, with references
 measured in the same run (Gymnasium's Pendulum-v1 and python-control), because the machines
-are shared and noisy: the ratios are what to read."""
+are shared and noisy: the ratios are what to read. Training throughput (env + policy: PPO's
+rollouts and updates) is measured on the native vector env and, for the ratio, on
+stable-baselines3's ``DummyVecEnv`` of scalar envs."""
 
 from __future__ import annotations
 
@@ -14,7 +16,11 @@ import numpy as np
 __all__ = ["PERF_KEYS", "measure_performance"]
 
 PERF_KEYS = ("env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
-             "simulate_samples_per_s", "python_control_samples_per_s")
+             "simulate_samples_per_s", "python_control_samples_per_s", "train_steps_per_s",
+             "train_dummy_steps_per_s", "rollout_steps_per_s", "rollout_dummy_steps_per_s")
+
+TRAIN_ENV = "fricbench/RandomFriction-v0"
+"""The env the training throughput is measured on (``fricbench train``'s default)."""
 
 
 def _best_rate(work: Callable[[], int], repeats: int) -> float:
@@ -128,6 +134,59 @@ def _python_control_rate(horizon: float) -> float:
     return t.size / (time.perf_counter() - t0)
 
 
+def _train_rate(vec_env: str, rollouts: int, repeats: int) -> tuple[float, float]:
+    """Env steps/s of ``PPO.learn``, and of its rollouts alone (env + policy inference), with
+    ``fricbench train``'s PPO settings (8 envs, 10 epochs of 256-sample minibatches; rollouts
+    of 128 steps per env instead of 1024: the update costs the same per step) on
+    :data:`TRAIN_ENV` vectorised as ``vec_env``, one torch thread; best of ``repeats``.
+
+    The env's construction and a first rollout and update (torch and numba warm-up) are not
+    timed.
+    """
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from fricbench.compensators.train import HYPERPARAMS, make_training_env
+
+    class RolloutClock(BaseCallback):
+        """Adds up the wall time of the rollouts."""
+
+        seconds = 0.0
+
+        def _on_rollout_start(self) -> None:
+            self._t0 = time.perf_counter()
+
+        def _on_rollout_end(self) -> None:
+            self.seconds += time.perf_counter() - self._t0
+
+        def _on_step(self) -> bool:
+            return True
+
+    hp = dict(HYPERPARAMS["ppo"])
+    n_envs, pool = int(hp.pop("n_envs")), int(hp.pop("reference_pool"))
+    hp["n_steps"] = 128
+    steps = rollouts * n_envs * hp["n_steps"]
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        vec = make_training_env(TRAIN_ENV, n_envs=n_envs, seed=0, vec_env=vec_env,
+                                reference_pool=min(pool, 4))
+        model = PPO("MlpPolicy", vec, seed=0, device="cpu", **hp)
+        model.learn(n_envs * hp["n_steps"])
+        learn, rollout = 0.0, 0.0
+        for _ in range(repeats):
+            clock = RolloutClock()
+            t0 = time.perf_counter()
+            model.learn(steps, callback=clock, reset_num_timesteps=False)
+            learn = max(learn, steps / (time.perf_counter() - t0))
+            rollout = max(rollout, steps / clock.seconds)
+        vec.close()
+    finally:
+        torch.set_num_threads(threads)
+    return learn, rollout
+
+
 def measure_performance(quick: bool = False, log: Callable[[str], None] = print
                         ) -> dict[str, float]:
     """Measure every figure of :data:`PERF_KEYS` in one run; logs progress and memory."""
@@ -143,9 +202,14 @@ def measure_performance(quick: bool = False, log: Callable[[str], None] = print
     sim = _simulate_rate(3 if quick else 5)
     log("perf: python-control input_output_response ...")
     pc = _python_control_rate(0.05 if quick else 0.2)
+    log(f"perf: PPO training on {TRAIN_ENV}, 8 envs: native vector env, then DummyVecEnv ...")
+    train, rollout = _train_rate("native", 1, 1 if quick else 2)
+    train_dummy, rollout_dummy = _train_rate("dummy", 1, 1 if quick else 2)
     result = {"env_steps_per_s": env, "pendulum_steps_per_s": pendulum,
               "vector_env_steps_per_s": vec, "simulate_samples_per_s": sim,
-              "python_control_samples_per_s": pc}
+              "python_control_samples_per_s": pc, "train_steps_per_s": train,
+              "train_dummy_steps_per_s": train_dummy, "rollout_steps_per_s": rollout,
+              "rollout_dummy_steps_per_s": rollout_dummy}
     log(f"perf: vector env peak memory at 4096 envs (tracemalloc): {peak_mb:.1f} MB "
         f"(target < 500 MB)")
     return result
@@ -162,6 +226,16 @@ def format_report(r: dict[str, float]) -> str:
         ("python_control_samples_per_s", r["python_control_samples_per_s"],
          f"simulate is {r['simulate_samples_per_s'] / r['python_control_samples_per_s']:.0f} x "
          "this (target >= 1000 x)"),
+        ("train_steps_per_s", r["train_steps_per_s"],
+         f"PPO learn, 8 native envs: {r['train_steps_per_s'] / r['train_dummy_steps_per_s']:.2f}"
+         " x the DummyVecEnv"),
+        ("train_dummy_steps_per_s", r["train_dummy_steps_per_s"],
+         "reference: PPO learn, DummyVecEnv of 8 scalar envs"),
+        ("rollout_steps_per_s", r["rollout_steps_per_s"],
+         "its rollouts (env + policy): "
+         f"{r['rollout_steps_per_s'] / r['rollout_dummy_steps_per_s']:.2f} x the DummyVecEnv's"),
+        ("rollout_dummy_steps_per_s", r["rollout_dummy_steps_per_s"],
+         "reference: the DummyVecEnv's rollouts"),
     ]
     width = max(len(k) for k, _, _ in rows)
     return "\n".join(f"{k:<{width}}  {v:>14,.0f}  {note}" for k, v, note in rows)
