@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -218,3 +220,23 @@ def test_bad_vector_envs_and_options_are_refused() -> None:
     with pytest.raises(ValueError, match="reset options.*takes none"):
         vec.reset()
 
+
+def _readme_example() -> str:
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("## Training SB3 on the native vector env", 1)[1]
+    match = re.search(r"```python\n(.*?)```", section, re.S)
+    assert match is not None
+    return match.group(1)
+
+
+def test_readme_example_runs() -> None:
+    code = _readme_example()
+    # the same code with few steps
+    for old, new in (("total_timesteps=100_000", "total_timesteps=256"),
+                     ("n_steps=1024", "n_steps=32")):
+        assert old in code
+        code = code.replace(old, new)
+    scope: dict[str, Any] = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    assert scope["model"].num_timesteps == 256
+    assert scope["action"].shape == (8, 1)
