@@ -11,6 +11,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+import torch
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
@@ -171,15 +172,28 @@ def test_first_episodes_match_a_dummy_vec_env_of_scalar_envs() -> None:
                                            s_i["terminal_observation"], rtol=1e-6, atol=1e-6)
 
 
+def _tiny_ppo(seed: int) -> PPO:
+    # the adapter's own seed differs from the model's: the model's seed must rule
+    vec = VecMonitor(_adapter(2, seed=3))
+    model = PPO("MlpPolicy", vec, n_steps=64, batch_size=64, n_epochs=1, seed=seed,
+                device="cpu", policy_kwargs={"net_arch": [16]})
+    return model.learn(256)
+
+
 def test_tiny_ppo_and_sac_learn_on_the_adapter() -> None:
-    vec = VecMonitor(_adapter(2, seed=0))
-    model = PPO("MlpPolicy", vec, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu",
-                policy_kwargs={"net_arch": [16]})
-    model.learn(256)
+    model = _tiny_ppo(seed=0)
     assert model.num_timesteps == 256
     assert len(model.ep_info_buffer) == 4  # VecMonitor saw 2 x 128 steps of 50-step episodes
+    vec = model.get_env()
+    assert vec is not None
     action, _ = model.predict(vec.reset(), deterministic=True)
     assert action.shape == (2, 1)
+    # same seed, same training bit for bit
+    again = _tiny_ppo(seed=0)
+    for (name, p), q in zip(model.policy.state_dict().items(),
+                            again.policy.state_dict().values()):
+        assert torch.equal(p, q), name
+    assert [e["r"] for e in model.ep_info_buffer] == [e["r"] for e in again.ep_info_buffer]
     sac = SAC("MlpPolicy", _adapter(2, seed=0), learning_starts=64, batch_size=32,
               train_freq=1, gradient_steps=1, buffer_size=1000, seed=0, device="cpu",
               policy_kwargs={"net_arch": [16]})
