@@ -10,7 +10,9 @@ Importing :mod:`fricbench` registers every spec under the ``fricbench/`` namespa
 Keywords of ``gym.make`` are merged onto the env's spec and checked as spec files are
 (:func:`make_env` lists them; :class:`EnvKeywordError` names each problem). A malformed spec
 on ``FRICBENCH_ENV_PATH`` is skipped with an :class:`EnvSpecWarning`; :func:`check_specs`
-(``fricbench list --check``) reports every problem.
+(``fricbench list --check``) reports every problem. stable-baselines3 trains on the native
+vector env through :mod:`fricbench.gym.sb3` (not imported here: it imports stable-baselines3
+and torch).
 """
 
 from fricbench.gym.env import ServoAxisEnv
