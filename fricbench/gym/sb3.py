@@ -206,7 +206,8 @@ def make_sb3_vec_env(spec_id: str, num_envs: int = 1, *, seed: int = 0,
         References generated per seeded trajectory choice (``random``): each episode draws one
         from the pool.
     **overrides
-        ``axis`` and ``task`` replacing the spec's (:func:`fricbench.gym.make_vector_env`).
+        Keywords merged onto the env's spec (``trajectories``, ``friction``, ``effects``,
+        ...: :func:`fricbench.gym.make_vector_env`).
 
     Returns
     -------

@@ -915,7 +915,7 @@ def make_env(spec_id: str, render_mode: str | None = None, **overrides: Any) -> 
     return ServoAxisEnv(axis=axis, task=task, render_mode=render_mode)
 
 
-_VECTOR_ARGS = ("reference_pool", "seed", "render_mode")  # of ServoAxisVectorEnv besides these
+_VECTOR_ARGS = ("reference_pool", "seed", "render_mode", "autoreset_mode")  # of ServoAxisVectorEnv besides these
 
 
 def make_vector_env(spec_id: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:
@@ -931,7 +931,8 @@ def make_vector_env(spec_id: str, num_envs: int = 1, **kwargs: Any) -> gym.vecto
     num_envs : int
         Number of sub-envs.
     **kwargs
-        ``reference_pool``, ``seed`` and ``render_mode`` of :class:`ServoAxisVectorEnv`; every
+        ``reference_pool``, ``seed``, ``render_mode`` and ``autoreset_mode`` of
+        :class:`ServoAxisVectorEnv`; every
         other keyword is merged onto the env's spec as in :func:`make_env` (``friction``,
         ``effects``, ``fc``, ``trajectories``, ``axis``, ...).
 

@@ -28,8 +28,13 @@ def _short(spec_id: str, **params: Any) -> TaskConfig:
                    trajectories=(TrajectoryChoice("random", {"duration": 0.05, **params}),))
 
 
+def _short_keywords(**params: Any) -> list[dict[str, Any]]:
+    """:func:`_short`'s trajectories as a gym.make keyword (merged onto the spec)."""
+    return [{"id": "random", "duration": 0.05, **params}]
+
+
 def _adapter(n: int = 3, seed: int = 0, spec_id: str = TRAIN, **params: Any) -> SB3VecEnv:
-    return make_sb3_vec_env(spec_id, n, seed=seed, task=_short(spec_id, **params))
+    return make_sb3_vec_env(spec_id, n, seed=seed, trajectories=_short_keywords(**params))
 
 
 def _rollout(vec: Any, actions: np.ndarray) -> tuple[list[Any], ...]:
@@ -153,7 +158,8 @@ def test_first_episodes_match_a_dummy_vec_env_of_scalar_envs() -> None:
     # over the autoreset (friction redrawn per episode would use the generators differently)
     spec = get_spec("fricbench/PaperAxis-v0")
     task = _short("fricbench/PaperAxis-v0", seed=3)
-    vec = make_sb3_vec_env("fricbench/PaperAxis-v0", 2, seed=5, task=task)
+    vec = make_sb3_vec_env("fricbench/PaperAxis-v0", 2, seed=5,
+                           trajectories=_short_keywords(seed=3))
     dummy = DummyVecEnv([lambda: ServoAxisEnv(axis=spec.axis, task=task) for _ in range(2)])
     vec.seed(5)
     dummy.seed(5)
