@@ -915,7 +915,8 @@ def make_env(spec_id: str, render_mode: str | None = None, **overrides: Any) -> 
     return ServoAxisEnv(axis=axis, task=task, render_mode=render_mode)
 
 
-_VECTOR_ARGS = ("reference_pool", "seed", "render_mode", "autoreset_mode")  # of ServoAxisVectorEnv besides these
+# keywords of ServoAxisVectorEnv itself (every other keyword is merged onto the spec)
+_VECTOR_ARGS = ("reference_pool", "seed", "render_mode", "autoreset_mode")
 
 
 def make_vector_env(spec_id: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:
