@@ -244,7 +244,9 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
     steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))),
                   idim.relerr(model.plant))]
     u_rms = float(np.sqrt(np.mean(idim.u_dec**2)))
-    floor = prediction_floor(model, prep, w)
+    # never below the sensor's own floor (never zero: NoiseFloor.rms > 0), so every ratio to
+    # it is finite
+    floor = max(prediction_floor(model, prep, w), prep.noise.rms)
     reason = f"reached the maximum of {settings.max_steps} effects"
     for _ in range(settings.max_steps):
         cur = steps[-1]
@@ -616,7 +618,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                            jac: np.ndarray | None, warnings: list[str], alt_loops: tuple = (),
                            budget_iter: int = 5) -> tuple[list[Step], str, float]:
     steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))), None)]
-    floor_linear = prediction_floor(model, prep)
+    floor_linear = max(prediction_floor(model, prep), prep.noise.rms)
     floor = floor_linear
     reason = f"reached the maximum of {settings.max_steps} effects"
     runners_up: set[str] = set()
