@@ -1,0 +1,401 @@
+"""Open-loop diagnosis: the position simulated free-run from the measured effort.
+
+The axis is driven by its logged effort alone (:mod:`fricbench.axis.open_loop`), so the rigid
+body is a double integrator and any unexplained force integrates into a drift of the position.
+The fit therefore minimises the *simulation* (output) error of the position, each free-run
+segment started from its own first ``n_init`` samples only, and the effect search judges a
+candidate effect on the simulation error of **held-out** blocks of the run (fitted on the other
+blocks, simulated free over the held-out block from its first samples). Nothing is detrended:
+the reported errors are the raw free-run errors, drift included.
+
+Model (plant row of :mod:`fricbench.axis.plant`, forces in the effort's unit)::
+
+    M dv/dt = u - B v - F_eff(x, v)      always M, B; effects from the registry add F_eff terms
+
+The effects are those of :mod:`fricbench.sysid.diagnose.effects` (their plant entries); their
+shape parameters (a Stribeck velocity, a period) are fixed here at values set from the run's
+scales, since only sizes are fitted open loop.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import butter, filtfilt
+
+from fricbench.axis import plant as PL
+from fricbench.axis.open_loop import initial_state, simulate_open_loop
+from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
+
+__all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
+           "fit_open_loop", "search_open_loop", "simulate_model", "free_run_errors",
+           "periodic_statistics"]
+
+BASE_EFFECTS: tuple[str, ...] = ("coulomb_friction", "force_offset")
+"""Effects of every open-loop model (with the mass and the viscous damping)."""
+
+CANDIDATE_EFFECTS: tuple[str, ...] = ("asymmetric_friction", "stribeck_friction",
+                                      "position_dependent_friction", "cogging")
+"""Effects the forward search tries, in this order."""
+
+Log = Callable[[str], None]
+
+
+@dataclass
+class OpenLoopModel:
+    """A rigid axis driven by its effort: a plant row and the effects switched on.
+
+    Attributes
+    ----------
+    plant : ndarray, shape (N_PLANT,)
+        Plant row (forces in the effort's unit, mass in effort unit per m/s^2).
+    effects : tuple of str
+        Registry effects in the model.
+    """
+
+    plant: np.ndarray = field(repr=False)
+    effects: tuple[str, ...]
+
+    def free(self) -> tuple[int, ...]:
+        """Plant entries fitted: mass, damping and the sizes of the effects."""
+        idx = [PL.M, PL.B]
+        for name in self.effects:
+            eff = get_effect(name)
+            idx += [i for i in eff.parameters if i not in eff.shape_parameters]
+        return tuple(dict.fromkeys(idx))
+
+    def describe(self, force_unit: str = "N") -> dict[str, object]:
+        """Fitted parameters in SI units (forces in ``force_unit``)."""
+        p = self.plant
+        out: dict[str, object] = {"mass": float(p[PL.M]),
+                                  f"viscous_{force_unit}_s_m": float(p[PL.B])}
+        for name in self.effects:
+            out[name] = describe_parameters(name, p, force_unit)
+        return out
+
+
+@dataclass
+class OpenLoopFit:
+    """The result of :func:`search_open_loop`.
+
+    Attributes
+    ----------
+    model : OpenLoopModel
+        Final model, fitted on the whole run.
+    train_rms : float
+        Free-run position error of ``model`` on the whole run (from its first samples), m.
+    heldout : dict
+        Held-out free-run error (rms, m) of every model the search judged, by effect set.
+    steps : list of dict
+        The search's decisions, in order.
+    """
+
+    model: OpenLoopModel
+    train_rms: float
+    heldout: dict[str, float]
+    steps: list[dict[str, object]]
+
+
+def _scales(effort: np.ndarray, y: np.ndarray, ts: float) -> dict[str, float]:
+    v = np.gradient(y, ts)
+    force = max(float(np.sqrt(np.mean(effort ** 2))), 1e-12)
+    speed = max(float(np.sqrt(np.mean(v ** 2))), 1e-12)
+    stroke = max(float(np.ptp(y)), 1e-12)
+    return {"force": force, "speed": speed, "stroke": stroke, "center": float(np.mean(y)),
+            "v_max": max(float(np.max(np.abs(v))), 1e-12)}
+
+
+def _switch_on(p: np.ndarray, name: str, sc: dict[str, float]) -> np.ndarray:
+    """Fix an effect's shape parameters from the run's scales (sizes stay as they are)."""
+    q = p.copy()
+    if name == "stribeck_friction":
+        q[PL.VS] = 0.1 * sc["v_max"]
+    elif name == "position_dependent_friction":
+        q[PL.PD_PERIOD] = 2.0 * sc["stroke"]
+        q[PL.PD_CENTER] = sc["center"]
+    elif name == "cogging":
+        # a period of twice the stroke: a force that varies smoothly along the stroke
+        q[PL.COG_PERIOD] = 2.0 * sc["stroke"]
+    return q
+
+
+def _param_scale(i: int, value: float, sc: dict[str, float]) -> float:
+    if i == PL.M:
+        return max(0.1 * abs(value), 1e-12)
+    if i in (PL.B, PL.DB):
+        return 0.1 * sc["force"] / sc["speed"]
+    if i == PL.PD_GRAD:
+        return 1.0 / sc["stroke"]
+    if i in (PL.PD_SIN, PL.PD_COS):
+        return 0.3
+    return 0.05 * sc["force"]
+
+
+def _bounds(i: int) -> tuple[float, float]:
+    if i == PL.M:
+        return 1e-12, np.inf
+    if i in (PL.FC, PL.FS_EXCESS):
+        return 0.0, np.inf
+    return -np.inf, np.inf
+
+
+def _idim_start(effort: np.ndarray, y: np.ndarray, ts: float, effects: Sequence[str],
+                sc: dict[str, float]) -> np.ndarray:
+    """Plant row from the inverse dynamics (filtered differences) of the linear terms."""
+    fc = min(100.0, 0.2 / ts)
+    b, a = butter(4, fc * 2.0 * ts)
+    yf = filtfilt(b, a, y)
+    uf = filtfilt(b, a, effort)
+    v = np.gradient(yf, ts)
+    acc = np.gradient(v, ts)
+    moving = np.abs(v) > 0.02 * sc["v_max"]
+    sgn = np.where(moving, np.sign(v), 0.0)
+    cols = [acc, v, sgn, np.ones_like(v)]
+    idx = [PL.M, PL.B, PL.FC, PL.OFFSET]
+    if "asymmetric_friction" in effects:
+        cols += [0.5 * np.abs(sgn), 0.5 * np.abs(v)]
+        idx += [PL.DFC, PL.DB]
+    X = np.column_stack(cols)
+    # u = M a + B v + fc sgn(v) + f0 [+ dfc/2 |sgn v| + dB/2 |v|]; a light ridge keeps dfc and f0
+    # (the same force while moving) apart
+    norm = np.sqrt(np.sum(X ** 2, axis=0)) + 1e-300
+    Xn = X / norm
+    lam = 1e-6 * X.shape[0]
+    theta = np.linalg.solve(Xn.T @ Xn + lam * np.eye(len(idx)), Xn.T @ uf) / norm
+    p = PL.default_row(max(float(theta[0]), 1e-6), 0.0, ts)
+    for i, val in zip(idx[1:], theta[1:], strict=True):
+        p[i] = val
+    p[PL.FC] = max(p[PL.FC], 0.0)
+    for name in effects:
+        p = _switch_on(p, name, sc)
+    return p
+
+
+def simulate_model(plant: np.ndarray, effort: np.ndarray, y: np.ndarray, ts: float,
+                   n_init: int, n_sub: int = 1) -> np.ndarray:
+    """Free-run positions of plant rows from the effort, started from ``y[:n_init]`` only."""
+    x0, v0 = initial_state(y, ts, n_init)
+    out, _ = simulate_open_loop(plant, effort, ts, x0=x0, v0=v0, n_sub=n_sub)
+    return out
+
+
+def _segments_residual(rows: np.ndarray, effort: np.ndarray, y: np.ndarray, ts: float,
+                       segments: Sequence[tuple[int, int]], n_init: int) -> np.ndarray:
+    out = []
+    for lo, hi in segments:
+        ys = simulate_model(rows, effort[lo:hi], y[lo:hi], ts, n_init)
+        out.append(ys[:, n_init:] - y[None, lo + n_init:hi])
+    res = np.concatenate(out, axis=1)
+    # a diverged row gets a large finite residual (the optimiser steps back)
+    return np.nan_to_num(res, nan=10.0 * (float(np.ptp(y)) + 1.0))
+
+
+def fit_open_loop(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
+                  segments: Sequence[tuple[int, int]], n_init: int,
+                  max_nfev: int = 60) -> tuple[OpenLoopModel, float]:
+    """Fit the model's free entries by free-run simulation error over ``segments``.
+
+    Each segment ``[lo, hi)`` is simulated from the effort, its state taken from its first
+    ``n_init`` samples; the error counts from sample ``lo + n_init``. Levenberg-Marquardt-like
+    trust-region least squares with a forward-difference Jacobian whose rows run in one batch.
+
+    Returns the fitted model and its rms simulation error over the segments, m.
+    """
+    sc = _scales(effort, y, ts)
+    idx = list(model.free())
+    p0 = model.plant.copy()
+    scale = np.array([_param_scale(i, p0[i], sc) for i in idx])
+    lo = np.array([_bounds(i)[0] for i in idx]) / scale
+    hi = np.array([_bounds(i)[1] for i in idx]) / scale
+    z0 = np.clip(p0[idx] / scale, lo + 1e-9, hi - 1e-9)
+
+    def rows(Z: np.ndarray) -> np.ndarray:
+        P = np.repeat(p0[None, :], Z.shape[0], axis=0)
+        P[:, idx] = Z * scale
+        return P
+
+    def fun(z: np.ndarray) -> np.ndarray:
+        return _segments_residual(rows(z[None, :]), effort, y, ts, segments, n_init)[0]
+
+    def jac(z: np.ndarray) -> np.ndarray:
+        h = 1e-5
+        Z = np.vstack([z, z + h * np.eye(z.size)])
+        R = _segments_residual(rows(Z), effort, y, ts, segments, n_init)
+        return ((R[1:] - R[0]) / h).T
+
+    res = least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
+                        xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+    p = p0.copy()
+    p[idx] = res.x * scale
+    return OpenLoopModel(p, model.effects), float(np.sqrt(np.mean(res.fun ** 2)))
+
+
+def _blocks(n: int, k: int) -> list[tuple[int, int]]:
+    edges = np.linspace(0, n, k + 1).astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def _fit_multistart(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray, ts: float,
+                    segments: Sequence[tuple[int, int]], n_init: int,
+                    extra: Sequence[np.ndarray] = ()) -> tuple[OpenLoopModel, float]:
+    """Best fit (lowest error on ``segments``) from the inverse-dynamics start and ``extra``."""
+    sc = _scales(effort, y, ts)
+    sel = np.zeros(y.size, dtype=bool)
+    for lo, hi in segments:
+        sel[lo:hi] = True
+    starts = [_idim_start(effort[sel], y[sel], ts, effects, sc), *extra]
+    best: tuple[OpenLoopModel, float] | None = None
+    for p in starts:
+        q = p.copy()
+        for name in effects:
+            q = _switch_on(q, name, sc)
+        fit = fit_open_loop(OpenLoopModel(q, effects), effort, y, ts, segments=segments,
+                            n_init=n_init)
+        if best is None or fit[1] < best[1]:
+            best = fit
+    assert best is not None
+    return best
+
+
+def _heldout(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray, ts: float,
+             folds: Sequence[tuple[int, int]], n_init: int,
+             fold_starts: dict[int, np.ndarray]) -> tuple[float, dict[int, np.ndarray]]:
+    """Rms free-run error over the held-out blocks, each fitted on the other blocks."""
+    sq, count = 0.0, 0
+    fitted: dict[int, np.ndarray] = {}
+    for j, (lo, hi) in enumerate(folds):
+        train = [f for i, f in enumerate(folds) if i != j]
+        extra = [fold_starts[j]] if j in fold_starts else []
+        model, _ = _fit_multistart(effects, effort, y, ts, train, n_init, extra)
+        fitted[j] = model.plant
+        yh = simulate_model(model.plant, effort[lo:hi], y[lo:hi], ts, n_init)[0]
+        e = np.nan_to_num(yh[n_init:] - y[lo + n_init:hi], nan=float(np.ptp(y)) + 1.0)
+        sq += float(np.sum(e ** 2))
+        count += e.size
+    return float(np.sqrt(sq / count)), fitted
+
+
+def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: int = 20,
+                     folds: int = 2, candidates: Sequence[str] = CANDIDATE_EFFECTS,
+                     max_effects: int = 3, min_gain: float = 0.03,
+                     log: Log | None = None) -> OpenLoopFit:
+    """Forward selection of effects on held-out free-run error, then a fit on the whole run.
+
+    The run is cut into ``folds`` contiguous blocks. A model's held-out error is the rms
+    free-run error over every block when fitted on the others. A candidate effect joins the
+    model when it lowers that error by at least ``min_gain`` (relative); the best one joins
+    first. The final model is fitted on the whole run as one free-run segment.
+
+    Parameters
+    ----------
+    effort, y : ndarray, shape (K,)
+        Measured effort and position (m).
+    ts : float
+        Sample time, s.
+    n_init : int
+        Samples of each segment used for its initial state.
+    folds : int
+        Held-out blocks (at least 2).
+    candidates : sequence of str
+        Registry effects to try beyond :data:`BASE_EFFECTS`.
+    max_effects : int
+        Most effects added to the base model.
+    min_gain : float
+        Relative held-out improvement an effect must bring.
+    log : callable, optional
+        Progress lines.
+    """
+    if folds < 2:
+        raise ValueError(f"folds={folds!r}: at least 2 blocks are needed to hold one out")
+    effort = np.asarray(effort, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if effort.shape != y.shape or effort.ndim != 1:
+        raise ValueError(f"effort, y: expected two 1-D arrays of one length, got shapes "
+                         f"{effort.shape} and {y.shape}")
+    if y.size // folds < 5 * n_init:
+        raise ValueError(f"folds={folds!r}: blocks of {y.size // folds} samples are too short "
+                         f"for n_init={n_init!r}")
+    say = log or (lambda _s: None)
+    blocks = _blocks(y.size, folds)
+    effects = BASE_EFFECTS
+    score, fold_fits = _heldout(effects, effort, y, ts, blocks, n_init, {})
+    heldout = {"+".join(effects): score}
+    steps: list[dict[str, object]] = [{"effects": list(effects), "heldout_rms": score}]
+    say(f"open loop: base {', '.join(effects)}: held-out rms {1e3 * score:.3f} mm")
+    remaining = [c for c in candidates if c not in effects]
+    while remaining and len(effects) - len(BASE_EFFECTS) < max_effects:
+        trials = {}
+        for name in remaining:
+            trial = (*effects, name)
+            s, fits = _heldout(trial, effort, y, ts, blocks, n_init, fold_fits)
+            heldout["+".join(trial)] = s
+            trials[name] = (s, fits)
+            say(f"  + {name}: held-out rms {1e3 * s:.3f} mm")
+        name = min(trials, key=lambda k: trials[k][0])
+        s, fits = trials[name]
+        accepted = s < (1.0 - min_gain) * score
+        steps.append({"candidate": name, "heldout_rms": s, "accepted": accepted})
+        if not accepted:
+            break
+        effects, score, fold_fits = (*effects, name), s, fits
+        remaining.remove(name)
+        say(f"  -> {name} accepted")
+    full = [(0, y.size)]
+    model, train_rms = _fit_multistart(effects, effort, y, ts, full, n_init,
+                                       list(fold_fits.values()))
+    say(f"open loop: final {', '.join(effects)}: train free-run rms {1e3 * train_rms:.3f} mm")
+    return OpenLoopFit(model, train_rms, heldout, steps)
+
+
+def free_run_errors(y_sim: np.ndarray, y: np.ndarray, n_init: int) -> dict[str, float]:
+    """Raw free-run error statistics from sample ``n_init`` on (nothing detrended), m."""
+    e = y_sim[n_init:] - y[n_init:]
+    ym = y[n_init:]
+    sse = float(np.sum(e ** 2))
+    sst = float(np.sum((ym - ym.mean()) ** 2))
+    return {"rms": float(np.sqrt(np.mean(e ** 2))), "max": float(np.max(np.abs(e))),
+            "final": float(e[-1]), "r2": 1.0 - sse / sst if sst > 0.0 else float("nan")}
+
+
+def periodic_statistics(y_sim: np.ndarray, y: np.ndarray, effort: np.ndarray,
+                        ts: float, n_init: int) -> dict[str, float] | None:
+    """Per-period errors and the noise from the spread between periods, for periodic runs.
+
+    The period is the effort's autocorrelation peak; a run is periodic when that peak's
+    normalised value exceeds 0.9 and at least two whole periods fit. The noise is the rms
+    deviation of each period's measured position, after removing that period's mean (a drift
+    between periods is motion, not noise), from the mean period shape. Returns None otherwise.
+    """
+    u = effort - effort.mean()
+    n = u.size
+    spec = np.fft.rfft(u, 2 * n)
+    ac = np.fft.irfft(spec * np.conj(spec))[:n]
+    if ac[0] <= 0.0:
+        return None
+    ac = ac / ac[0]
+    lo = max(int(0.05 * n / 10), 10)
+    if n // 2 <= lo:
+        return None
+    # the first lag past the zero lag's hump with the highest correlation
+    neg = np.nonzero(ac[:n // 2] < 0.0)[0]
+    if neg.size == 0:
+        return None
+    start = int(neg[0])
+    lag = start + int(np.argmax(ac[start:n // 2]))
+    peak = float(ac[lag]) * n / (n - lag)
+    n_per = n // lag
+    if peak < 0.9 or n_per < 2:
+        return None
+    e = (y_sim - y)[:n_per * lag].reshape(n_per, lag)
+    shapes = y[:n_per * lag].reshape(n_per, lag)
+    shapes = shapes - shapes.mean(axis=1, keepdims=True)
+    noise = float(np.sqrt(np.mean((shapes - shapes.mean(axis=0)) ** 2) * n_per / (n_per - 1)))
+    per_rms = np.sqrt(np.mean(e ** 2, axis=1))
+    return {"period_s": lag * ts, "periods": float(n_per),
+            "rms_per_period_mean": float(per_rms.mean()),
+            "rms_per_period_min": float(per_rms.min()),
+            "rms_per_period_max": float(per_rms.max()),
+            "noise_between_periods": noise}
