@@ -395,7 +395,7 @@ digits that is not a header name)."""
 
 
 def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
-             reference: Column = "x_ref", position: Column = "x",
+             reference: Column | None = "x_ref", position: Column = "x",
              effort: Column | None = "u", effort_required: bool = False,
              sample_time: float | None = None, position_unit: str = "m") -> RunData:
     """Read a run from a CSV file and validate it.
@@ -414,7 +414,8 @@ def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
         Columns of time (s), reference position and measured position (in
         ``position_unit``): a header name, or a 0-based index (an int, or a string of digits
         that is not a header name: ``"0"`` is the first column). ``time`` None: no time
-        column (then ``sample_time`` is required).
+        column (then ``sample_time`` is required). ``reference`` None: an open-loop run with
+        no reference; ``x_ref`` is then the measured position (nothing tracks it).
     effort : str, int or None
         Column of the effort (name or 0-based index). When the column is missing the run has
         no effort, unless ``effort_required`` (then it is an error); None never reads an
@@ -489,7 +490,7 @@ def _number(cell: str, path: str, line_no: int, name: str, delimiter: str) -> fl
 
 
 def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | None,
-           reference: Column, position: Column, effort: Column | None,
+           reference: Column | None, position: Column, effort: Column | None,
            effort_required: bool, sample_time: float | None = None, to_si: float = 1.0,
            position_unit: str = "m") -> RunData:
     """Header, columns and numbers of the lines of a run file (see :func:`load_run`)."""
@@ -521,7 +522,9 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
         j = _field_at(header_line, delimiter)
         raise DataError(f"{path}: line {header_no} (the header), field {j + 1}: bad quoting "
                         f"({exc}); a quoted name must close on its line") from None
-    specs: dict[str, Column] = {"x_ref": reference, "x": position}
+    specs: dict[str, Column] = {"x": position}
+    if reference is not None:
+        specs["x_ref"] = reference
     t_idx = _column_index(time, header) if time is not None else None
     if sample_time is not None and t_idx is not None:
         raise DataError(f"{path}: the file has a time column {header[t_idx]!r} and a sample "
@@ -546,6 +549,9 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
     if missing:
         hint = ("; or give the sample time of a log without one, --sample-time"
                 if "t" in specs and _column_index(specs["t"], header) is None else "")
+        if reference is not None and reference in missing:
+            hint += ("; a run without a reference (effort-driven, open loop): --open-loop "
+                     "with an effort column")
         raise DataError(f"{path}: missing column(s) {', '.join(map(repr, missing))}; the file "
                         f"has {', '.join(map(repr, header))} (choose with --time, --reference, "
                         f"--position, --effort: a name or a 0-based index{hint})")
@@ -597,7 +603,9 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
         names["t"] = f"k * {sample_time:g} s (--sample-time)"
     else:
         t = np.asarray(data["t"])
-    return validate_arrays(t, to_si * np.asarray(data["x_ref"]), to_si * np.asarray(data["x"]),
+    # open loop (no reference column): the measured position stands in for x_ref
+    x_ref = data["x_ref"] if "x_ref" in data else data["x"]
+    return validate_arrays(t, to_si * np.asarray(x_ref), to_si * np.asarray(data["x"]),
                            np.asarray(data["u"]) if "u" in data else None,
                            source=path, names=names, line_numbers=np.asarray(line_numbers),
                            effort_required=effort_required, position_unit=position_unit)

@@ -15,7 +15,7 @@ import math
 import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -76,6 +76,14 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     tune.add_argument("--tf", action="store_true",
                       help="also fit a black-box transfer function and report its position "
                            "error, for comparison (slow on long runs)")
+    ol = parser.add_argument_group("open loop", "the effort is the input, the position the "
+                                    "output: no reference column needed")
+    ol.add_argument("--open-loop", action="store_true",
+                    help="simulate the position free-run from the effort (needs an effort "
+                         "column; any reference column is ignored)")
+    ol.add_argument("--init-samples", type=int, default=20, metavar="N",
+                    help="open loop: samples of each free run used for its initial state "
+                         "(default: 20)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     return parser
 
@@ -159,9 +167,19 @@ def run(args: argparse.Namespace) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    open_loop = getattr(args, "open_loop", False)
+    if open_loop and args.no_effort:
+        print("error: --open-loop and --no-effort: an open-loop run is driven by its effort "
+              "column", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if open_loop and args.init_samples < 2:
+        print(f"error: --init-samples {args.init_samples}: expected an integer >= 2",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
     effort = None if args.no_effort else (args.effort or "u")
-    required = args.effort is not None and not args.no_effort
-    cols = dict(time=args.time or "t", reference=args.reference, position=args.position,
+    required = open_loop or (args.effort is not None and not args.no_effort)
+    cols = dict(time=args.time or "t", reference=None if open_loop else args.reference,
+                position=args.position,
                 effort=effort, effort_required=required, sample_time=args.sample_time,
                 position_unit=args.position_unit)
     try:
@@ -176,6 +194,8 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     for w in run_data.warnings + (other.warnings if other is not None else ()):
         print(f"warning: {w}", file=sys.stderr)
+    if open_loop:
+        return _run_open_loop(args, run_data, other, log, t_start)
     try:
         from fricbench.sysid.diagnose.diagnosis import diagnose
         from fricbench.sysid.diagnose.search import SearchSettings
@@ -212,6 +232,42 @@ def run(args: argparse.Namespace) -> int:
     _print_summary(report, run_data.n_samples, time.perf_counter() - t_start,
                    position_unit(args.position_unit),
                    frozenset(run_data.warnings + (other.warnings if other is not None else ())))
+    return EXIT_OK
+
+
+def _run_open_loop(args: argparse.Namespace, run_data: RunData, other: RunData | None,
+                   log: Callable[[str], None], t_start: float) -> int:
+    """``--open-loop``: the free-run diagnosis of :mod:`fricbench.sysid.diagnose.open_loop`."""
+    from fricbench.sysid.diagnose.open_loop import diagnose_open_loop, print_open_loop_summary
+
+    assert run_data.u is not None  # the effort column is required in open loop
+    val = None
+    if other is not None:
+        assert other.u is not None
+        val = (other.t, other.u, other.x)
+    try:
+        report = diagnose_open_loop(run_data.t, run_data.u, run_data.x, validate=val,
+                                    n_init=args.init_samples, force_unit=args.effort_unit,
+                                    max_effects=args.max_effects, log=log)
+    except (ValueError, ArithmeticError) as exc:
+        print(f"error: the open-loop diagnosis failed: {str(exc) or type(exc).__name__}",
+              file=sys.stderr)
+        return EXIT_FAILED
+    report["source"] = run_data.source
+    bad = _non_finite(report)
+    if bad:
+        print(f"error: the open-loop diagnosis gave non-finite results ({bad[0]}): no report "
+              "written", file=sys.stderr)
+        return EXIT_FAILED
+    if args.json:
+        from fricbench.sysid.diagnose.report import write_json
+
+        try:
+            write_json(args.json, report)
+        except OSError as exc:
+            print(f"error: cannot write the report: {exc}", file=sys.stderr)
+            return EXIT_FAILED
+    print_open_loop_summary(report, time.perf_counter() - t_start)
     return EXIT_OK
 
 

@@ -19,6 +19,7 @@ scales, since only sizes are fitted open loop.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -31,7 +32,8 @@ from fricbench.axis.open_loop import initial_state, simulate_open_loop
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
-           "fit_open_loop", "search_open_loop", "simulate_model", "free_run_errors",
+           "fit_open_loop", "search_open_loop", "diagnose_open_loop",
+           "print_open_loop_summary", "simulate_model", "free_run_errors",
            "periodic_statistics"]
 
 BASE_EFFECTS: tuple[str, ...] = ("coulomb_friction", "force_offset")
@@ -399,3 +401,127 @@ def periodic_statistics(y_sim: np.ndarray, y: np.ndarray, effort: np.ndarray,
             "rms_per_period_min": float(per_rms.min()),
             "rms_per_period_max": float(per_rms.max()),
             "noise_between_periods": noise}
+
+
+def _effort_relerr(plant: np.ndarray, effort: np.ndarray, y: np.ndarray, ts: float) -> float:
+    """Relative rms error (%) of the inverse dynamics ``u = M a + F(x, v)`` on filtered data."""
+    fc = min(100.0, 0.2 / ts)
+    b, a = butter(4, fc * 2.0 * ts)
+    yf = filtfilt(b, a, y)
+    uf = filtfilt(b, a, effort)
+    v = np.gradient(yf, ts)
+    acc = np.gradient(v, ts)
+    # u = M a + (B + fv) v + F_f(x, v) + f0 + F_cog(x)
+    u_hat = plant[PL.M] * acc + PL.sliding_force(plant, yf, v)
+    return float(100.0 * np.linalg.norm(uf - u_hat) / max(float(np.linalg.norm(uf)), 1e-300))
+
+
+def _evaluate(fit_model: OpenLoopModel, linear: OpenLoopModel, effort: np.ndarray,
+              y: np.ndarray, ts: float, n_init: int) -> dict[str, object]:
+    y_lin = simulate_model(linear.plant, effort, y[:n_init], ts, n_init)[0]
+    y_fin = simulate_model(fit_model.plant, effort, y[:n_init], ts, n_init)[0]
+    before = free_run_errors(y_lin, y, n_init)
+    after = free_run_errors(y_fin, y, n_init)
+    out: dict[str, object] = {
+        "position": {"rms_before": before["rms"], "rms_after": after["rms"],
+                     "max_before": before["max"], "max_after": after["max"],
+                     "final_error_after": after["final"], "r2_after": after["r2"]},
+        "effort": {"relerr_before_pct": _effort_relerr(linear.plant, effort, y, ts),
+                   "relerr_after_pct": _effort_relerr(fit_model.plant, effort, y, ts)},
+    }
+    per = periodic_statistics(y_fin, y, effort, ts, n_init)
+    if per is not None:
+        out["periodic"] = per
+    return out
+
+
+def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
+                       validate: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                       n_init: int = 20, force_unit: str = "N", folds: int = 2,
+                       max_effects: int = 3, log: Log | None = None) -> dict[str, object]:
+    """Open-loop diagnosis of a run: the JSON-ready report of ``fricbench diagnose --open-loop``.
+
+    ``position`` is the free-run simulation error of the measured position from the effort
+    (``before``: the linear rigid body, mass and viscous damping, fitted the same way;
+    ``after``: the model the held-out search selected), raw, drift included; ``effort`` the
+    relative error of the inverse dynamics; ``validation`` the same on ``validate``
+    (``(t, effort, y)`` of another run, simulated from its first ``n_init`` samples only).
+    """
+    ts = float(np.median(np.diff(t)))
+    warnings: list[str] = []
+    fit = search_open_loop(effort, y, ts, n_init=n_init, folds=folds,
+                           max_effects=max_effects, log=log)
+    sc = _scales(effort, y, ts)
+    p_lin = _idim_start(effort, y, ts, (), sc)
+    p_lin[[PL.FC, PL.OFFSET]] = 0.0
+    lin = OpenLoopModel(p_lin, ())
+    lin, _ = fit_open_loop(lin, effort, y, ts, segments=[(0, y.size)], n_init=n_init)
+    train = _evaluate(fit.model, lin, effort, y, ts, n_init)
+    pos = train["position"]
+    assert isinstance(pos, dict)
+    per = train.get("periodic")
+    rms = float(pos["rms_after"])
+    if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
+        ratio = rms / per["noise_between_periods"]
+        if ratio <= 3.0:
+            verdict, reason = "explained", "free-run error within 3x the noise between periods"
+        else:
+            verdict, reason = "partly explained", (
+                f"free-run error {ratio:.3g}x the noise between periods: the drift of the "
+                "rigid-body mode integrates what the model misses")
+    else:
+        verdict, reason = "not judged", ("no repeated periods to estimate the noise: the "
+                                         "free-run error is reported raw")
+    if float(pos["rms_after"]) > float(pos["rms_before"]):
+        warnings.append("the selected model simulates worse than the linear rigid body on the "
+                        "whole run (it was judged on held-out blocks)")
+    report: dict[str, object] = {
+        "mode": "open_loop",
+        "verdict": verdict,
+        "verdict_detail": {"verdict": verdict, "reason": reason},
+        "effects": list(fit.model.effects),
+        "parameters": fit.model.describe(force_unit),
+        "position": train["position"],
+        "effort": train["effort"],
+        "search": {"heldout_rms_m": fit.heldout, "steps": fit.steps, "folds": folds,
+                   "n_init": n_init},
+        "linear_model": {"parameters": lin.describe(force_unit)},
+        "warnings": warnings,
+    }
+    if per is not None:
+        report["periodic"] = per
+    if validate is not None:
+        tv, uv, yv = validate
+        report["validation"] = _evaluate(fit.model, lin, uv, yv, ts, n_init)
+    return report
+
+
+def print_open_loop_summary(report: dict[str, object], elapsed: float) -> None:
+    """Human summary of an open-loop report (stdout)."""
+    v = report["verdict_detail"]
+    assert isinstance(v, dict)
+    print(f"verdict: {v['verdict']}: {v['reason']}")
+    effects = report["effects"]
+    assert isinstance(effects, list)
+    print(f"effects (open loop, judged on held-out blocks): {', '.join(effects)}")
+    print(f"parameters: {report['parameters']}")
+    for name in ("position", "validation"):
+        block = report.get(name)
+        if not isinstance(block, dict):
+            continue
+        pos = block["position"] if name == "validation" else block
+        eff = (block.get("effort") if name == "validation" else report["effort"])
+        assert isinstance(pos, dict) and isinstance(eff, dict)
+        print(f"{name}: free-run position rms {1e3 * pos['rms_before']:.4g} -> "
+              f"{1e3 * pos['rms_after']:.4g} mm, max {1e3 * pos['max_before']:.4g} -> "
+              f"{1e3 * pos['max_after']:.4g} mm; effort relerr "
+              f"{eff['relerr_before_pct']:.3f} -> {eff['relerr_after_pct']:.3f} %")
+    per = report.get("periodic")
+    if isinstance(per, dict):
+        print(f"periodic: {per['periods']:.0f} periods of {per['period_s']:.4g} s, rms per "
+              f"period {1e3 * per['rms_per_period_min']:.4g}..{1e3 * per['rms_per_period_max']:.4g}"
+              f" mm, noise between periods {1e6 * per['noise_between_periods']:.3g} um")
+    warnings = report.get("warnings")
+    for w in warnings if isinstance(warnings, list) else []:
+        print(f"warning: {w}", file=sys.stderr)
+    print(f"elapsed: {elapsed:.1f} s")
