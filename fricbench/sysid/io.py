@@ -134,7 +134,8 @@ def _effort_problem(u: np.ndarray, name: str | None, where: Callable[[int], str]
 def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarray | None = None,
                     *, source: str = "<arrays>", names: dict[str, str | None] | None = None,
                     line_numbers: np.ndarray | None = None,
-                    effort_required: bool = True, position_unit: str = "m") -> RunData:
+                    effort_required: bool = True, position_unit: str = "m",
+                    open_loop: bool = False) -> RunData:
     """Check arrays of one run and wrap them in a :class:`RunData`.
 
     Parameters
@@ -158,6 +159,9 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         arrays are already converted to its SI unit. It is recorded in ``RunData.units``
         (``"position"``: the SI unit, ``"position_logged"``: this one); a rotary unit turns off
         the "looks like millimetres" warning.
+    open_loop : bool
+        An open-loop run without a reference (``x_ref`` is the measured position): the check
+        that reference and position differ is skipped.
 
     Returns
     -------
@@ -261,7 +265,7 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                         "check the column choice and unit")
     peak = max(float(np.max(np.abs(xr))), float(np.max(np.abs(xm))))
     gap = float(np.max(np.abs(xr - xm)))
-    if gap <= _CONSTANT_REL * peak:
+    if gap <= _CONSTANT_REL * peak and not open_loop:
         raise DataError(f"{source}: the reference {names['x_ref']!r} and the measured position "
                         f"{names['x']!r} are equal at every sample (largest difference "
                         f"{gap:.3g} {si}): there is no tracking error to explain; the reference "
@@ -605,7 +609,10 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
         t = np.asarray(data["t"])
     # open loop (no reference column): the measured position stands in for x_ref
     x_ref = data["x_ref"] if "x_ref" in data else data["x"]
+    if "x_ref" not in data:
+        names["x_ref"] = names["x"]
     return validate_arrays(t, to_si * np.asarray(x_ref), to_si * np.asarray(data["x"]),
                            np.asarray(data["u"]) if "u" in data else None,
                            source=path, names=names, line_numbers=np.asarray(line_numbers),
-                           effort_required=effort_required, position_unit=position_unit)
+                           effort_required=effort_required, position_unit=position_unit,
+                           open_loop="x_ref" not in data)

@@ -1,0 +1,152 @@
+"""Open-loop diagnosis (issue 13, items 1 and 2): simulated effort-driven runs and EMPS.
+
+The simulated runs come from an integrator written here (implicit Coulomb step, substeps),
+independent of :mod:`fricbench.axis.plant`; parameters are drawn with a seed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from fricbench.axis import plant as PL
+from fricbench.axis.open_loop import initial_state, simulate_open_loop
+from fricbench.sysid.diagnose.command import main as diagnose_main
+from fricbench.sysid.diagnose.open_loop import (
+    BASE_EFFECTS,
+    OpenLoopModel,
+    fit_open_loop,
+    periodic_statistics,
+)
+
+EMPS = "/work/shared/data/emps"
+TS = 1e-3
+
+
+def _multisine(n: int, rng: np.random.Generator, amp: float, period_s: float) -> np.ndarray:
+    """Zero-mean multisine, periodic with ``period_s``, random phases."""
+    t = np.arange(n) * TS
+    f0 = 1.0 / period_s
+    u = np.zeros(n)
+    for k in range(1, 8):
+        u += np.sin(2 * np.pi * k * f0 * t + rng.uniform(0, 2 * np.pi)) / k
+    return amp * u / np.max(np.abs(u))
+
+
+def _simulate_axis(u: np.ndarray, m: float, b: float, fc: float, f0: float,
+                   n_sub: int = 10) -> np.ndarray:
+    """M dv/dt = u - B v - fc sgn(v) - f0, implicit in the friction (sticks exactly)."""
+    h = TS / n_sub
+    x = v = 0.0
+    out = np.empty(u.size)
+    for k in range(u.size):
+        out[k] = x
+        for _ in range(n_sub):
+            # v* = (M v + h (u - f0)) / (M + h B); stick when |v*| <= h fc / (M + h B)
+            den = m + h * b
+            vs = (m * v + h * (u[k] - f0)) / den
+            step = h * fc / den
+            v_new = 0.0 if abs(vs) <= step else vs - np.sign(vs) * step
+            x += 0.5 * h * (v + v_new)
+            v = v_new
+    return out
+
+
+def _draw(seed: int) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    par = {"m": float(rng.uniform(2.0, 8.0)), "b": float(rng.uniform(20.0, 80.0)),
+           "fc": float(rng.uniform(3.0, 10.0)), "f0": float(rng.uniform(-2.0, 2.0))}
+    u = _multisine(6000, rng, amp=6.0 * par["fc"], period_s=2.0)
+    y = _simulate_axis(u, par["m"], par["b"], par["fc"], par["f0"])
+    y = y + 1e-7 * rng.standard_normal(y.size)
+    return par, u, y
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_fit_recovers_rigid_axis(seed: int) -> None:
+    par, u, y = _draw(seed)
+    start = PL.default_row(0.7 * par["m"], 0.7 * par["b"], TS)
+    start[PL.FC] = 0.5 * par["fc"]
+    model, rms = fit_open_loop(OpenLoopModel(start, BASE_EFFECTS), u, y, TS,
+                               segments=[(0, y.size)], n_init=20)
+    p = model.plant
+    assert rms < 1e-3 * np.ptp(y)
+    assert p[PL.M] == pytest.approx(par["m"], rel=0.05)
+    assert p[PL.B] == pytest.approx(par["b"], rel=0.05)
+    assert p[PL.FC] == pytest.approx(par["fc"], rel=0.05)
+    assert p[PL.OFFSET] == pytest.approx(par["f0"], abs=0.05 * par["fc"])
+
+
+def test_driver_matches_own_integrator() -> None:
+    par, u, y = _draw(3)
+    p = PL.default_row(par["m"], par["b"], TS)
+    p[PL.FC], p[PL.OFFSET] = par["fc"], par["f0"]
+    ys, status = simulate_open_loop(p, u, TS, x0=0.0, v0=0.0, n_sub=10)
+    assert status[0] == 0
+    assert np.max(np.abs(ys[0] - y)) < 1e-3 * np.ptp(y)
+    x0, v0 = initial_state(y, TS, 20)
+    assert abs(x0) < 1e-3 * np.ptp(y)
+
+
+def test_periodic_statistics_on_periodic_run() -> None:
+    par, u, y = _draw(4)
+    per = periodic_statistics(y, y, u, TS, 20)
+    assert per is not None
+    assert per["period_s"] == pytest.approx(2.0, rel=0.01)
+    assert per["periods"] == 3
+
+
+def test_cli_open_loop_without_reference(tmp_path: pytest.TempPathFactory) -> None:
+    par, u, y = _draw(5)
+    csv = os.path.join(str(tmp_path), "run.csv")
+    np.savetxt(csv, np.column_stack([np.arange(y.size) * TS, y, u]), delimiter=",",
+               header="t,x,u", comments="", fmt="%.12g")
+    out = os.path.join(str(tmp_path), "report.json")
+    # without --open-loop the missing reference is refused with a pointer to --open-loop
+    assert diagnose_main([csv, "--quiet"]) == 2
+    assert diagnose_main([csv, "--open-loop", "--max-effects", "1", "--json", out,
+                          "--quiet"]) == 0
+    with open(out) as fh:
+        report = json.load(fh)
+    for key in ("verdict", "warnings", "position", "effort", "effects"):
+        assert key in report
+    assert report["position"]["rms_after"] < 0.02 * np.ptp(y)
+    assert "coulomb_friction" in report["effects"]
+    assert report["parameters"]["coulomb_friction"]["fc_N"] == pytest.approx(par["fc"], rel=0.1)
+
+
+MEASURED_TEST_MM = 6.84
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 13 target <= 3.0 mm not reached: the held-out search keeps coulomb+offset and the "
+    f"test run gives {MEASURED_TEST_MM} mm (R^2 0.993); the pulse run needs 1.3-1.9 N more "
+    "friction at the plateaus than the training run, which a train-only rigid model cannot see"))
+def test_emps_protocol_target() -> None:
+    res = _protocol()
+    assert 1e3 * res.test["rms"] <= 3.0
+
+
+_CACHE: dict[str, object] = {}
+
+
+def _protocol():  # type: ignore[no-untyped-def]
+    if not os.path.isdir(EMPS):
+        pytest.fail(f"{EMPS} is missing: the EMPS data are part of the shared data set")
+    if "res" not in _CACHE:
+        from fricbench.bench.emps_protocol import run_protocol
+
+        _CACHE["res"] = run_protocol(EMPS)
+    return _CACHE["res"]
+
+
+def test_emps_protocol_measured() -> None:
+    res = _protocol()
+    # what the protocol reaches (measured): beats the published IDIM-LS simulated the same way
+    assert 1e3 * res.test["rms"] == pytest.approx(MEASURED_TEST_MM, abs=0.3)
+    assert res.test["r2"] > 0.99
+    assert 1e3 * res.idim_test["rms"] == pytest.approx(8.41, abs=0.05)
+    assert res.test["rms"] < res.idim_test["rms"]
