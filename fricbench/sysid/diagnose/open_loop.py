@@ -461,24 +461,45 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     assert isinstance(pos, dict)
     per = train.get("periodic")
     rms = float(pos["rms_after"])
+    # the three verdicts of the closed-loop diagnosis (fricbench.sysid.diagnose.verdict):
+    # effects against the linear rigid body, judged on the held-out (validation, else the
+    # training run's free-run) position; the noise between periods is the floor when the
+    # excitation repeats
+    at_floor = False
     if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
         ratio = rms / per["noise_between_periods"]
-        if ratio <= 3.0:
-            verdict, reason = "explained", "free-run error within 3x the noise between periods"
-        else:
-            verdict, reason = "partly explained", (
-                f"free-run error {ratio:.3g}x the noise between periods: the drift of the "
-                "rigid-body mode integrates what the model misses")
+        at_floor = ratio <= 3.0
+        residual = ("at the noise floor (within 3x the noise between periods)" if at_floor
+                    else f"free-run error {ratio:.3g}x the noise between periods: the drift of "
+                         "the rigid-body mode integrates what the model misses")
     else:
-        verdict, reason = "not judged", ("no repeated periods to estimate the noise: the "
-                                         "free-run error is reported raw")
+        residual = ("no repeated periods to estimate the noise: the free-run error is "
+                    "reported raw")
+    held = train["position"]
+    name = "training (free run)"
+    if validate is not None:
+        held = _evaluate(fit.model, lin, validate[1], validate[2], ts, n_init)["position"]
+        name = "validation"
+    assert isinstance(held, dict)
+    fell = float(held["rms_after"]) < float(held["rms_before"])
+    effects = list(fit.model.effects)
+    if effects and fell:
+        verdict, reason = "explained", (f"{', '.join(effects)} added to the linear rigid body; "
+                                        f"the {name} run's free-run position error fell")
+    elif effects:
+        verdict, reason = "not_explained", (f"{', '.join(effects)} added, but the {name} run's "
+                                            "free-run position error did not fall")
+    elif at_floor:
+        verdict, reason = "nothing_to_explain", "the linear rigid body is at the noise floor"
+    else:
+        verdict, reason = "not_explained", "no candidate effect explains the residual"
     if float(pos["rms_after"]) > float(pos["rms_before"]):
         warnings.append("the selected model simulates worse than the linear rigid body on the "
                         "whole run (it was judged on held-out blocks)")
     report: dict[str, object] = {
         "mode": "open_loop",
         "verdict": verdict,
-        "verdict_detail": {"verdict": verdict, "reason": reason},
+        "verdict_detail": {"verdict": verdict, "reason": reason, "residual": residual},
         "effects": list(fit.model.effects),
         "parameters": fit.model.describe(force_unit),
         "position": train["position"],
