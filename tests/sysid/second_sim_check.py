@@ -1,0 +1,192 @@
+"""Running ``fricbench diagnose`` on a second-simulator case and judging its report.
+
+Shared by ``test_diagnose_second_sim.py`` and ``sweep_second_sim.py``. The diagnosis is run
+the way a user runs it: the case is written as a CSV (:func:`second_sim.write_csv`) and the
+real command line (:func:`fricbench.cli.main`) is called in-process with the options a user
+would give (:func:`second_sim.cli_args`) and ``--json``.
+
+A diagnosis is right when
+
+* the command exits with status 0 and prints no traceback (nor raises);
+* the JSON report holds no NaN, inf or null anywhere;
+* the case's effect is named (none for a control) and no other effect is, friction
+  descriptions (Coulomb, Stribeck, asymmetric friction, force offset) aside;
+* the position rms error falls at least 2x against the linear model, or to within 1.5x the
+  case's noise floor.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import time
+import traceback
+from dataclasses import dataclass, field
+
+import second_sim as S
+
+__all__ = ["Outcome", "diagnose_case", "judge", "bad_numbers", "format_row", "HEADER"]
+
+
+@dataclass
+class Outcome:
+    """What one diagnosis run gave and whether it is right.
+
+    Attributes
+    ----------
+    case : second_sim.Case
+    status : int or None
+        Exit status (None when the command raised).
+    report : dict or None
+        The JSON report, when one was written and parsed.
+    stdout, stderr : str
+    failures : list of str
+        Why the diagnosis is not right (empty when it is).
+    elapsed : float
+        Wall time of the command, s.
+    """
+
+    case: S.Case
+    status: int | None
+    report: dict | None
+    stdout: str
+    stderr: str
+    failures: list[str] = field(default_factory=list)
+    elapsed: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        """Whether the diagnosis is right."""
+        return not self.failures
+
+    @property
+    def effects(self) -> list[str]:
+        """Effects the report names (empty without a report)."""
+        return list(self.report.get("effects", [])) if self.report else []
+
+
+def bad_numbers(obj: object, path: str = "") -> list[str]:
+    """Key paths of the null, NaN and inf values anywhere in a parsed JSON document."""
+    if isinstance(obj, dict):
+        return [p for k, v in obj.items() for p in bad_numbers(v, f"{path}.{k}" if path else k)]
+    if isinstance(obj, list):
+        return [p for i, v in enumerate(obj) for p in bad_numbers(v, f"{path}[{i}]")]
+    if obj is None:
+        return [f"{path} = null"]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return [f"{path} = {obj}"]
+    return []
+
+
+def _last_line(text: str) -> str:
+    lines = [ln for ln in text.strip().splitlines() if ln.strip()]
+    return lines[-1].strip() if lines else ""
+
+
+def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
+                  extra_args: tuple[str, ...] = ()) -> Outcome:
+    """Write ``case`` as a CSV in ``workdir``, run ``fricbench diagnose`` on it in-process
+    with ``--json`` and judge the result (see :func:`judge`)."""
+    from fricbench.cli import main
+
+    stem = os.path.join(os.fspath(workdir), f"{case.kind}-{case.seed}")
+    csv_path, json_path = stem + ".csv", stem + ".json"
+    S.write_csv(case, csv_path)
+    if os.path.exists(json_path):
+        os.remove(json_path)
+    argv = ["diagnose", *S.cli_args(case, csv_path), "--json", json_path, "--quiet",
+            *extra_args]
+    out, err = io.StringIO(), io.StringIO()
+    t0 = time.perf_counter()
+    status: int | None
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            status = main(argv)
+        except SystemExit as exc:  # argparse refusing an option
+            status = exc.code if isinstance(exc.code, int) else 2
+        except Exception:  # a traceback a user would see
+            traceback.print_exc()
+            status = None
+    elapsed = time.perf_counter() - t0
+    report = None
+    parse_error = None
+    if os.path.exists(json_path):
+        with open(json_path, encoding="utf-8") as fh:
+            text = fh.read()
+        try:
+            # NaN and Infinity are not JSON; keep them visible instead of failing the parse
+            report = json.loads(text, parse_constant=lambda c: float(c.replace("Infinity",
+                                                                               "inf")))
+        except ValueError as exc:
+            parse_error = str(exc)
+    outcome = Outcome(case, status, report, out.getvalue(), err.getvalue(), elapsed=elapsed)
+    outcome.failures = judge(outcome, parse_error)
+    return outcome
+
+
+def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
+    """Why ``outcome`` is not a right diagnosis of its case (empty list: it is)."""
+    case = outcome.case
+    failures = []
+    if outcome.status is None or "Traceback (most recent call last)" in outcome.stderr:
+        failures.append(f"traceback: {_last_line(outcome.stderr)}")
+    elif outcome.status != 0:
+        failures.append(f"exit {outcome.status}: {_last_line(outcome.stderr)}")
+    if parse_error is not None:
+        failures.append(f"JSON unreadable: {parse_error}")
+    report = outcome.report
+    if report is None:
+        if outcome.status == 0:
+            failures.append("exit 0 without a JSON report")
+        return failures
+    bad = bad_numbers(report)
+    if bad:
+        more = f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""
+        failures.append(f"non-finite {bad[0]}{more}")
+    effects = set(report.get("effects", []))
+    present = S.EFFECT_NAME[case.kind]
+    allowed = S.FRICTION_NAMES | ({present} if present else set())
+    if present is not None and present not in effects:
+        failures.append(f"missed {present}")
+    if effects - allowed:
+        failures.append(f"named absent {','.join(sorted(effects - allowed))}")
+    pos = report.get("position") or {}
+    before, after = pos.get("rms_before"), pos.get("rms_after")
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in (before, after)):
+        failures.append(f"position rms {before} -> {after}")
+    elif after > max(0.5 * before, 1.5 * case.floor):
+        failures.append(f"rms {before:.3g} -> {after:.3g} (x{before / max(after, 1e-300):.2f}), "
+                        f"floor {case.floor:.3g}")
+    return failures
+
+
+HEADER = (f"{'case':13s} {'variant':42s} {'present':10s} {'named':44s} "
+          f"{'rms before -> after (floor), um|urad':38s} {'verdict':18s} {'ok':4s} "
+          f"{'time':>6s}  reason")
+
+_SHORT = {"coulomb_friction": "coulomb", "stribeck_friction": "stribeck",
+          "asymmetric_friction": "asym", "force_offset": "offset", "backlash": "backlash",
+          "cogging": "cogging", "thermal_drift": "thermal", "position_dependent_friction": "posdep"}
+
+
+def format_row(outcome: Outcome) -> str:
+    """One line of the sweep's table."""
+    case = outcome.case
+    rep = outcome.report or {}
+    pos = rep.get("position") or {}
+
+    def um(v: object) -> str:
+        return f"{v * 1e6:.3g}" if isinstance(v, (int, float)) and math.isfinite(v) else str(v)
+
+    rms = (f"{um(pos.get('rms_before'))} -> {um(pos.get('rms_after'))} "
+           f"({um(case.floor)})") if pos else "-"
+    named = ",".join(_SHORT.get(e, e) for e in outcome.effects) or "-"
+    present = _SHORT.get(S.EFFECT_NAME[case.kind] or "", "-") or "-"
+    verdict = str(rep.get("verdict", "-"))
+    reason = "; ".join(outcome.failures)
+    return (f"{case.kind + '/' + str(case.seed):13s} {case.variant.label():42s} {present:10s} "
+            f"{named:44s} {rms:38s} {verdict:18s} {'ok' if outcome.ok else 'FAIL':4s} "
+            f"{outcome.elapsed:5.1f}s  {reason}")
