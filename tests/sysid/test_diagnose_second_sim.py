@@ -1,0 +1,311 @@
+"""``fricbench diagnose`` on runs of a second, independently written simulator.
+
+:mod:`second_sim` (beside this file) simulates a semi-closed servo loop with its own
+integrator and controllers: cascade or PID laws, current saturation, transport delay,
+backlash between two bodies, cogging, thermal growth driven by motion, friction varying along
+the stroke, Stribeck friction, quantised noisy sensors, 1 kHz loops logged at 1 kHz or
+100 Hz, linear or rotary units and rounded exports. The first tests check the simulator
+itself against physics and against python-control; the others diagnose drawn cases through
+the real command line (:mod:`second_sim_check` says what right means).
+``sweep_second_sim.py`` runs a wider random sweep.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from dataclasses import replace
+
+import control
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import second_sim as S  # noqa: E402
+import second_sim_check as C  # noqa: E402
+
+T = S.LOOP_TS
+
+
+# -- the simulator ---------------------------------------------------------------------------
+def _zinv(num: list[float], den: list[float]) -> control.TransferFunction:
+    """A transfer function from coefficients in ascending powers of z^-1."""
+    n = max(len(num), len(den))
+    return control.tf(list(num) + [0.0] * (n - len(num)), list(den) + [0.0] * (n - len(den)),
+                      T)
+
+
+def _linear_loop(mass: float, damping: float, c: S.Controller) -> control.StateSpace:
+    """The loop of ``c`` around a frictionless mass, reference to position, written from the
+    controller equations as transfer functions (not from the simulator's code)."""
+    plant = control.sample_system(control.tf([1.0], [mass, damping, 0.0]), T, method="zoh")
+    g = c.kt * plant * _zinv([0.0] * c.delay + [1.0], [1.0])
+    diff = _zinv([1 / T, -1 / T], [1.0])  # backward difference
+    if c.law == "cascade":
+        # kv (1 + (T/ti) z^-1 / (1 - z^-1)): the integral uses the errors before this sample
+        c_int = c.kv * _zinv([1.0, T / c.ti - 1.0], [1.0, -1.0])
+        filt = _zinv([1 - c.vel_pole], [1.0, -c.vel_pole])
+        c_y = c_int * (c.kp + filt * diff)
+        c_r = c_int * (c.kp + c.kvff * diff) + c.kaff * diff * diff
+    else:
+        pid = (c.p + _zinv([0.0, c.i * T], [1.0, -1.0])
+               + _zinv([c.d / (c.tf + T), -c.d / (c.tf + T)], [1.0, -c.tf / (c.tf + T)]))
+        c_y = pid
+        c_r = pid + c.ff1 * diff + c.ff2 * diff * diff
+    # state-space interconnection: transfer-function products lose digits at this order
+    return control.feedback(control.ss(g), control.ss(c_y)) * control.ss(c_r)
+
+
+@pytest.mark.parametrize(("law", "delay", "filtered", "feedforward"),
+                         [("cascade", 0, False, True), ("cascade", 2, True, False),
+                          ("pid", 0, False, True), ("pid", 3, False, False)])
+def test_linear_loop_matches_python_control(law: str, delay: int, filtered: bool,
+                                            feedforward: bool) -> None:
+    """Without friction or effects the simulator is the exact ZOH sampled loop."""
+    rng = np.random.default_rng([7, delay])
+    var = S.Variant(law=law, delay=delay, vel_filter=filtered, feedforward=feedforward)
+    plant, _, kt = S._base(rng, var)
+    ctrl = S._design(rng, var, plant, kt, 0.0, 0.0)
+    plant = plant.without_friction()
+    xr = S.random_reference(rng, 3.0, plant.stroke)
+    tr = S.simulate(plant, ctrl, S.Sensor(), xr, clean=True)
+    y = np.squeeze(control.forced_response(_linear_loop(plant.mass, plant.damping, ctrl),
+                                           T=tr.t, U=xr).outputs)
+    err = np.max(np.abs(xr - tr.y_log))
+    assert err > 1e-7  # a real tracking error to compare
+    assert np.max(np.abs(y - tr.y_log)) <= 1e-6 * err
+    # the loop was drawn stable and damped: the error ends small after the last move
+    assert np.all(np.abs(S.loop_poles(plant.mass, plant.damping, ctrl)) < 1.0)
+
+
+def test_friction_stops_a_coasting_body_where_physics_says() -> None:
+    """Coulomb + viscous: stopping distance ``m/b (v0 - fc/b ln(1 + b v0 / fc))``, then rest."""
+    mass, damping, fc, v0 = 200.0, 150.0, 120.0, 0.05
+    plant = S.Plant(mass=mass, damping=damping, coulomb=fc, breakaway=fc)
+    ctrl = S.Controller("pid")  # no gains; and the drive is off
+    tr = S.simulate(plant, ctrl, S.Sensor(), np.zeros(1000), clean=True, v0=v0, drive=False)
+    tau = mass / damping
+    t_stop = tau * math.log1p(damping * v0 / fc)
+    dist = tau * (v0 - fc / damping * math.log1p(damping * v0 / fc))
+    moving = tr.t < t_stop
+    assert tr.x_table[-1] == pytest.approx(dist, rel=1e-9)
+    assert np.all(np.diff(tr.x_table) >= 0.0)  # never slides back
+    assert np.all(tr.x_table[~moving][1:] == tr.x_table[-1])  # at rest, no chatter
+    assert tr.x_table[moving][-1] < dist
+
+
+def test_stick_below_breakaway_and_terminal_velocity_above() -> None:
+    """At rest a body stays below the breakaway force; pushed above it, it reaches the
+    terminal velocity of Coulomb + viscous friction, ``(f - fc) / b``."""
+    mass, damping, fc, fs = 10.0, 200.0, 5.0, 8.0
+    h = T / S.SUBSTEPS
+    x, v = 0.0, 0.0
+    for _ in range(2000):
+        x, v = S._advance(x, v, 0.99 * fs, mass, damping, fc, fs, 1e-3, 2.0, h)
+    assert x == 0.0 and v == 0.0
+    for _ in range(40000):
+        x, v = S._advance(x, v, 1.01 * fs, mass, damping, fc, fs, 1e-3, 2.0, h)
+    assert v == pytest.approx((1.01 * fs - fc) / damping, rel=1e-9)
+    # pushed back below the Coulomb level it stops exactly, and stays
+    for _ in range(40000):
+        x, v = S._advance(x, v, 0.5 * fc, mass, damping, fc, fs, 1e-3, 2.0, h)
+    assert v == 0.0
+
+
+def test_two_bodies_move_their_centre_of_mass_as_the_drive_force_says() -> None:
+    """No friction and no damping: whatever the gap and the contact do, the centre of mass of
+    motor and table moves as one rigid body under the applied force (momentum balance)."""
+    plant = S.Plant(mass=100.0, damping=0.0, coulomb=0.0, breakaway=0.0, backlash=1e-4,
+                    motor_share=0.4, contact_hz=600.0, contact_zeta=0.3)
+    ctrl = S._design(np.random.default_rng(2), S.Variant(law="cascade", delay=1),
+                     replace(plant, coulomb=50.0), 100.0, 0.0, 0.0)
+    t = np.arange(3000) * T
+    xr = 0.001 * np.sin(2 * np.pi * t)
+    tr = S.simulate(plant, ctrl, S.Sensor(), xr, clean=True)
+    centre = 0.4 * tr.x_motor + 0.6 * tr.x_table
+    # the rigid body under the same zero-order-hold force, sample by sample
+    x = np.zeros_like(t)
+    v = 0.0
+    for k in range(t.shape[0] - 1):
+        a = tr.force[k] / plant.mass
+        x[k + 1] = x[k] + v * T + 0.5 * a * T * T
+        v += a * T
+    np.testing.assert_allclose(centre, x, rtol=0, atol=1e-12 * np.max(np.abs(x)))
+    lag = tr.x_motor - tr.x_table
+    assert np.max(lag) > 0.45e-4 and np.min(lag) < -0.45e-4  # the gap was crossed both ways
+
+
+def test_backlash_table_lags_the_motor_by_half_the_gap() -> None:
+    """On a slow back-and-forth move the table trails the motor by half the gap (plus the
+    contact's give), on the side of the motion, and never by more."""
+    gap = 20e-6
+    plant = S.Plant(mass=300.0, damping=200.0, coulomb=150.0, breakaway=150.0, backlash=gap,
+                    motor_share=0.5, contact_hz=600.0, contact_zeta=0.3)
+    var = S.Variant(law="cascade")
+    ctrl = S._design(np.random.default_rng(1), var, plant, 100.0, 0.0, 0.0)
+    t = np.arange(6000) * T
+    xr = 0.002 * (1 - np.cos(2 * np.pi * t / 3.0))  # out and back, twice
+    tr = S.simulate(plant, ctrl, S.Sensor(), xr, clean=True)
+    lag = tr.x_motor - tr.x_table
+    give = 2 * plant.coulomb / ((plant.mass / 4) * (2 * math.pi * plant.contact_hz) ** 2)
+    assert np.max(np.abs(lag)) <= gap / 2 + give
+    v = np.gradient(xr, T)
+    fast = np.abs(v) > 0.3 * np.max(np.abs(v))
+    np.testing.assert_allclose(lag[fast], np.sign(v[fast]) * gap / 2, atol=give)
+    # the table stands still while the motor crosses the gap after a reversal
+    assert np.ptp(tr.x_table) < np.ptp(tr.x_motor)
+
+
+def test_sensor_readings_are_multiples_of_the_step() -> None:
+    case = S.draw_case("control", 3, duration=2.0, rounded=False, log_every=1)
+    q = case.sensor.quantum
+    for y in (case.trace.y_log, case.trace.y_feedback):
+        steps = y / q
+        np.testing.assert_allclose(steps, np.round(steps), rtol=0, atol=1e-6)
+    assert np.ptp(case.trace.y_log - case.clean.y_log) > q  # and noisy
+
+
+def test_100_hz_log_is_every_tenth_loop_sample() -> None:
+    case = S.draw_case("cogging", 4, duration=3.0, log_every=10, rounded=False, effort="A")
+    cols = case.logged()
+    k = S.UNIT_PER_SI[case.variant.unit]
+    np.testing.assert_array_equal(cols["t"], case.trace.t[::10])
+    np.testing.assert_allclose(cols["pos"], case.trace.y_log[::10] * k)
+    np.testing.assert_array_equal(cols["effort"], case.trace.command[::10])
+    assert np.diff(cols["t"]) == pytest.approx(0.01)
+
+
+def test_saturation_clips_some_moves_and_never_exceeds_the_limit() -> None:
+    case = S.draw_case("control", 5, duration=6.0, saturate=True)
+    lim = case.ctrl.limit
+    assert math.isfinite(lim)
+    assert np.max(np.abs(case.trace.command)) <= lim
+    assert 0.0 < np.mean(case.trace.clipped) < 0.2
+
+
+def test_thermal_growth_reaches_only_the_log() -> None:
+    case = S.draw_case("thermal", 6, duration=8.0, rounded=False)
+    clean = case.clean
+    np.testing.assert_array_equal(clean.y_feedback, clean.x_motor)
+    np.testing.assert_allclose(clean.y_log - clean.x_table, clean.drift, atol=1e-15)
+    growth = case.plant.thermal_growth
+    assert np.all(clean.drift * np.sign(growth) >= 0.0)
+    assert np.max(np.abs(clean.drift)) > 0.05 * abs(growth)
+
+
+@pytest.mark.parametrize("overrides", [
+    dict(unit="deg", time_column=False, sep=";", header="channels", effort="%"),
+    dict(unit="mm", time_column=True, sep=",", header="names", effort="N", log_every=10),
+    dict(unit="um", rounded=True, effort=None),
+])
+def test_csv_reads_back_through_the_loader(tmp_path: object, overrides: dict) -> None:
+    """The file and the options a user would give load (fricbench's own reader) to the
+    simulated values, in SI."""
+    from fricbench.sysid.diagnose.command import _configure
+    from fricbench.sysid.io import load_run
+
+    case = S.draw_case("control", 8, duration=2.0, **overrides)
+    path = os.path.join(str(tmp_path), "run.csv")
+    S.write_csv(case, path)
+    ns = _configure(argparse.ArgumentParser()).parse_args(S.cli_args(case, path))
+    run = load_run(path, time=ns.time, reference=ns.reference, position=ns.position,
+                   effort=ns.effort, effort_required=ns.effort is not None,
+                   sample_time=ns.sample_time, position_unit=ns.position_unit)
+    cols = case.logged()
+    k = S.UNIT_PER_SI[case.variant.unit]
+    np.testing.assert_allclose(run.t, cols["t"], atol=1e-6)
+    tol = 0.0 if case.decimals is None else 0.5 * 10.0 ** -case.decimals
+    np.testing.assert_allclose(run.x, case.trace.y_log[case.index], rtol=1e-9, atol=tol / k)
+    if case.variant.effort is None:
+        assert run.u is None
+    else:
+        np.testing.assert_allclose(run.u, cols["effort"], rtol=1e-5)
+
+
+def test_rounded_export_reads_the_step_unevenly(tmp_path: object) -> None:
+    """Like a potentiometer step exported as 3.51 / 3.52: every step of the position column is
+    the sensor step give or take one last digit, and both roundings occur."""
+    case = S.draw_case("control", 9, duration=4.0, rounded=True, unit="deg",
+                       time_column=False)
+    path = os.path.join(str(tmp_path), "run.csv")
+    S.write_csv(case, path)
+    with open(path, encoding="utf-8") as fh:
+        rows = fh.read().splitlines()[1:]
+    cells = [r.split(case.variant.sep)[1] for r in rows]
+    assert all(len(c.split(".")[1]) == case.decimals for c in cells)
+    pos = np.array([float(c) for c in cells])
+    last = 10.0 ** -case.decimals
+    q = case.sensor.quantum * S.UNIT_PER_SI["deg"]
+    assert 10 <= q / last < 100
+    steps = np.abs(np.diff(pos))
+    steps = steps[steps > 0.5 * last]
+    counts = np.round(steps / q)
+    assert np.all(np.abs(steps - counts * q) <= last + 1e-9)  # two roundings
+    singles = np.unique(np.round(steps[counts == 1] / last))
+    assert len(singles) >= 2
+
+
+def test_draw_makes_effects_visible_and_is_reproducible() -> None:
+    a = S.draw_case("posdep", 10, duration=4.0)
+    b = S.draw_case("posdep", 10, duration=4.0)
+    assert a.signature is not None and a.signature >= 2.0 * a.floor > 0.0
+    np.testing.assert_array_equal(a.trace.y_log, b.trace.y_log)
+    assert a.truth()["effect"] == "position_dependent_friction"
+
+
+# -- diagnose on drawn cases -----------------------------------------------------------------
+# (kind, seed, variant fields): together they cover a friction-only control with and without
+# an effort column, each undeclared effect, a PID loop with current saturation and delay,
+# rotary degrees, radians logged at 100 Hz, a rounded export and a ';' file without a time
+# column. 6 s runs keep each case to a few seconds.
+_CASES: list[tuple[str, int, dict[str, object]]] = [
+    ("control", 21, dict(law="cascade", effort=None, unit="mm", rounded=True, saturate=False,
+                         delay=0, log_every=1)),
+    ("control", 22, dict(law="pid", effort="A", saturate=True, delay=1, unit="m",
+                         rounded=False, log_every=1)),
+    ("backlash", 23, dict(law="cascade", effort=None, unit="um", rounded=False, log_every=1)),
+    ("cogging", 24, dict(unit="deg", effort=None, rounded=False, log_every=1)),
+    ("thermal", 25, dict(sep=";", time_column=False, header="channels", effort=None,
+                         rounded=False, log_every=1, unit="mm")),
+    ("posdep", 26, dict(effort="N", unit="m", rounded=False, log_every=1)),
+    ("stribeck", 27, dict(log_every=10, unit="rad", rounded=False, effort=None)),
+    ("cogging", 28, dict(law="pid", effort="%", saturate=False, delay=2, unit="mm",
+                         rounded=False, log_every=1)),
+]
+
+# Known misses on today's diagnosis, as non-strict xfails: the reason is what the command
+# gives now. The engineer fixing the diagnosis removes each marker once its case passes.
+_NULLS = "null sizes in the candidate lists (steps[0].candidates[k].size)"
+_KNOWN_MISSES: dict[tuple[str, int], str] = {
+    ("control", 21): "a friction-only run: names cogging (position rms 1.01e-4 -> 1.7e-6 m, "
+                     f"floor 1.96e-6 m); {_NULLS}",
+    ("backlash", 23): "names backlash but also position_dependent_friction, stribeck and "
+                      "cogging (rms 1.55e-5 -> 1.64e-6 m, floor 3.2e-7 m); " + _NULLS,
+    ("cogging", 24): "rotary deg: misses cogging, names coulomb only (rms 9.29e-4 -> "
+                     f"3.04e-4 rad, floor 5.7e-6 rad); {_NULLS}",
+    ("thermal", 25): "names thermal_drift but the rms falls only 5.06e-5 -> 4.62e-5 m (x1.09, "
+                     f"floor 4.3e-8 m); {_NULLS}",
+    ("posdep", 26): "names backlash beside position_dependent_friction (rms 5.16e-5 -> "
+                    "8.6e-7 m, floor 3.1e-7 m)",
+    ("stribeck", 27): "effects right (coulomb, stribeck; rms 1.67e-3 -> 3.89e-4 rad, floor "
+                      f"5.6e-5 rad) but {_NULLS}",
+    ("cogging", 28): "names position_dependent_friction (absent) beside cogging, "
+                     "asymmetric friction (rms 4.38e-5 -> 2.05e-6 m, floor 8.9e-9 m)",
+}
+
+
+def _param(kind: str, seed: int, overrides: dict[str, object]) -> object:
+    reason = _KNOWN_MISSES.get((kind, seed))
+    marks = [pytest.mark.xfail(strict=False, reason=reason)] if reason else []
+    return pytest.param(kind, seed, overrides, marks=marks, id=f"{kind}-{seed}")
+
+
+@pytest.mark.parametrize(("kind", "seed", "overrides"), [_param(*c) for c in _CASES])
+def test_diagnose_names_the_effect_and_cuts_the_error(tmp_path: object, kind: str, seed: int,
+                                                      overrides: dict[str, object]) -> None:
+    case = S.draw_case(kind, seed, duration=6.0, **overrides)
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
