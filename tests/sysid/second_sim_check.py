@@ -47,6 +47,8 @@ class Outcome:
         Why the diagnosis is not right (empty when it is).
     elapsed : float
         Wall time of the command, s.
+    bad : list of str
+        Key paths of the null, NaN and inf values in the report.
     """
 
     case: S.Case
@@ -56,6 +58,17 @@ class Outcome:
     stderr: str
     failures: list[str] = field(default_factory=list)
     elapsed: float = 0.0
+    bad: list[str] = field(default_factory=list)
+
+    @property
+    def wrong_only_by_candidate_nulls(self) -> bool:
+        """Whether the only fault is null or non-finite numbers inside the candidate lists
+        (``candidates``, ``rejected_at_last_step``), where the report marks candidates that
+        were ranked but not fitted: for telling that fault apart in the sweep's summary."""
+        return (len(self.failures) == 1 and self.failures[0].startswith("non-finite")
+                and all(".candidates[" in p or p.startswith(("candidates[",
+                                                              "rejected_at_last_step["))
+                        for p in self.bad))
 
     @property
     def ok(self) -> bool:
@@ -142,7 +155,7 @@ def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
         if outcome.status == 0:
             failures.append("exit 0 without a JSON report")
         return failures
-    bad = bad_numbers(report)
+    bad = outcome.bad = bad_numbers(report)
     if bad:
         more = f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""
         failures.append(f"non-finite {bad[0]}{more}")

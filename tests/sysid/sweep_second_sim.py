@@ -80,7 +80,9 @@ def main(argv: list[str] | None = None) -> int:
     controls = [o for o in outcomes if o.case.kind == "control"]
     false_in_controls = sum(bool(set(o.effects) - S.FRICTION_NAMES) for o in controls)
     times = [o.elapsed for o in outcomes]
-    print(f"{n_ok}/{len(outcomes)} right; controls with a false effect: {false_in_controls}/"
+    n_nulls = sum(o.wrong_only_by_candidate_nulls for o in outcomes)
+    print(f"{n_ok}/{len(outcomes)} right ({n_ok + n_nulls} if the nulls inside candidate lists "
+          f"were not counted); controls with a false effect: {false_in_controls}/"
           f"{len(controls)}; diagnose time per case: mean {sum(times) / max(len(times), 1):.1f}"
           f" s, max {max(times, default=0.0):.1f} s; total {time.perf_counter() - t_all:.0f} s")
     return 0 if n_ok == len(outcomes) else 1
