@@ -260,7 +260,35 @@ class Sensor:
 
 @dataclass(frozen=True)
 class Variant:
-    """How a case is controlled, logged and exported (drawn once per seed)."""
+    """How a case is controlled, logged and exported (drawn once per kind and seed).
+
+    Attributes
+    ----------
+    law : str
+        ``"cascade"`` or ``"pid"``.
+    saturate : bool
+        Whether the command is clipped at a current limit the run reaches.
+    delay : int
+        Transport delay, loop periods (0..3).
+    vel_filter : bool
+        A first-order filter on the cascade's velocity feedback.
+    feedforward : bool
+        Velocity and acceleration feedforward (cascade) or FF1/FF2 (PID).
+    unit : str
+        Position unit of the log: ``m``, ``mm``, ``um``, ``rad`` or ``deg``.
+    log_every : int
+        1 (a 1 kHz log) or 10 (100 Hz).
+    effort : str or None
+        The logged effort's unit (``"A"``, ``"N"``, ``"%"``), None when it is not logged.
+    rounded : bool
+        A coarse sensor and positions written with few decimals.
+    time_column : bool
+        Whether the file has a time column (else ``--sample-time``).
+    sep : str
+        ``","`` or ``";"``.
+    header : str
+        ``"names"`` (such as ``t,ref,pos,cmd``) or ``"channels"`` (``Channel 1..4``).
+    """
 
     law: str = "cascade"
     saturate: bool = False
@@ -808,6 +836,10 @@ class Case:
         Decimals of the positions in a rounded export.
     attempts : int
         Draws it took to make the effect visible.
+    names : tuple of str
+        Header names of time, reference, position, effort and the extra column.
+    extra_column : bool
+        Whether the file also holds the following error (a column to be ignored).
     """
 
     kind: str
