@@ -29,6 +29,7 @@ __all__ = ["ServoAxisEnv"]
 
 if TYPE_CHECKING:
     from fricbench.compensators.base import EpisodeContext
+    from fricbench.gym.render import AxisFigure, EpisodeTrace
 
 
 class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -119,7 +120,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
       refused, and ``axis=`` replaced the spec's axis whole).
     """
 
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
 
     def __init__(self, axis: Axis | None = None, task: TaskConfig | None = None,
                  render_mode: str | None = None) -> None:
@@ -159,8 +160,10 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         self._prev_action = np.zeros(d)
         self.reference: Reference | None = None
         self._k = 0
-        self._history: dict[str, list[np.ndarray]] = {}
-        self._fig: Any = None
+        self._trace: EpisodeTrace | None = None
+        self._fig: AxisFigure | None = None
+        self._frame_slot = -1
+        self._warned_headless = False
 
     # -- episode ------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None,
@@ -208,8 +211,15 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         d = self.n_axes
         noise0 = rng.standard_normal(d) if self.axis.needs_noise else np.zeros(d)
         self._batch.reset(self._xr[:, 0], self._vr[:, 0], noise0)
-        self._history = {"t": [], "x_ref": [], "x": [], "error": []}
-        self._record()
+        if self.render_mode is not None:
+            from fricbench.gym.render import EpisodeTrace
+
+            self._trace = EpisodeTrace.start(ref.t, self._xr[:, :k_total], self._vr[:, :k_total],
+                                             axis.friction)
+            self._frame_slot = -1
+            self._record(np.zeros(d))
+            if self.render_mode == "human":
+                self._human_frame(final=False)
         return self._observation(), {"trajectory": ref.name, "friction": axis.friction.to_dict()}
 
     @property
@@ -291,9 +301,9 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         info["reward_action"] = r_act
         truncated = self._k >= self.reference.n_samples - 1
         if self.render_mode is not None:
-            self._record()
+            self._record(self._out[3][:, 0])
             if self.render_mode == "human":
-                self.render()
+                self._human_frame(final=truncated)
         return obs, r_err + r_act, False, truncated, info
 
     # -- observation --------------------------------------------------------------------------
@@ -319,28 +329,56 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._obs_rows.ravel().astype(np.float32)
 
     # -- rendering ----------------------------------------------------------------------------
-    def _record(self) -> None:
-        if self.render_mode is None:
+    def _record(self, friction: np.ndarray) -> None:
+        """Store the current sample in the episode's trace (only with a render_mode)."""
+        if self._trace is None:
             return
         k = self._k
-        self._history["t"].append(np.asarray(k * self.ts))
-        self._history["x_ref"].append(self._xr[:, k].copy())
-        self._history["x"].append(self._batch.position.copy())
-        self._history["error"].append(self._xr[:, k] - self._batch.true_position)
+        b = self._batch
+        self._trace.record(k, b.position, self._xr[:, k] - b.true_position, b.velocity, friction)
+
+    def _human_frame(self, final: bool) -> None:
+        """Draw a frame when the simulated time enters a new 1 / render_fps slot, and at the end.
+
+        Frames follow simulated time: at ``t = 0``, at the first sample of each later slot
+        ``[m / fps, (m + 1) / fps)``, and at the last sample of the episode; the steps in
+        between are not drawn (the traces still show every sample).
+        """
+        fps = float(self.metadata["render_fps"])
+        # m = floor(t_k fps): the slot of sample k (1e-9 keeps t = m / fps in slot m)
+        slot = int(np.floor(self._k * self.ts * fps + 1e-9))
+        if slot > self._frame_slot or final:
+            self._frame_slot = slot
+            self.render()
 
     def render(self) -> np.ndarray | None:
-        """Reference vs actual position and the tracking error trace so far (um)."""
+        """The episode so far as a picture: reference and actual position, tracking error and
+        velocity against time with a time cursor, and the friction force against velocity (the
+        friction model's steady-state curve with the operating point on it).
+
+        ``render_mode="rgb_array"``: returns an (H, W, 3) uint8 frame, each call (under 20 ms a
+        frame; ``python -m fricbench.gym.render_benchmark``). ``"human"``: :meth:`reset` and
+        :meth:`step` draw into a window ``metadata["render_fps"]`` times per second of
+        simulated time (not every step); without a display it warns once and draws off-screen.
+        """
         if self.render_mode is None:
             gym.logger.warn("render() called without render_mode; pass render_mode='rgb_array'")
             return None
-        from fricbench.gym.render import draw_episode
+        if self._trace is None:
+            raise RuntimeError("call reset() before render()")
+        if self._fig is None:
+            from fricbench.gym.render import AxisFigure, display_available, warn_headless
 
-        frame, self._fig = draw_episode(self._history, self._fig, self.render_mode == "human")
-        return frame
+            window = False
+            if self.render_mode == "human":
+                window, backend = display_available()
+                if not window and not self._warned_headless:
+                    self._warned_headless = True
+                    warn_headless(backend)
+            self._fig = AxisFigure(window=window)
+        return self._fig.draw(self._trace)
 
     def close(self) -> None:
         if self._fig is not None:
-            import matplotlib.pyplot as plt
-
-            plt.close(self._fig)
+            self._fig.close()
             self._fig = None
