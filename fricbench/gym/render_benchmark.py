@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
 
     old(ks[0])
     ms_old = _time(old, ks, lambda k: None)
-    h, w, _ = env.render().shape
+    h, w, _ = base.render().shape
     print(f"render() frame time, {args.env} on {args.trajectory}: {args.frames} frames, one "
           f"every {every * base.ts * 1e3:.0f} ms of simulated time (render_fps "
           f"{base.metadata['render_fps']}), {w}x{h} px, Agg")
