@@ -85,7 +85,9 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ``ServoAxisEnv(axis, task, render_mode)``: ``axis`` (:class:`~fricbench.axis.Axis`),
     ``task`` (:class:`~fricbench.gym.task.TaskConfig`), ``render_mode`` (``"rgb_array"`` or
-    ``"human"``).
+    ``"human"``; see :meth:`render`: position, error, velocity and the friction law with the
+    operating point; ``"human"`` draws ``metadata["render_fps"]`` (25) frames per second of
+    simulated time and warns once, drawing off-screen, where there is no display).
 
     Registered ids are built from the TOML specs in ``envs/``, and the keywords of
     ``gymnasium.make`` (and ``make_vec``) are merged onto the env's spec, checked as a spec file
@@ -118,6 +120,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
 
     * v0: initial version; ``gym.make`` keywords merged onto the spec (they used to be
       refused, and ``axis=`` replaced the spec's axis whole).
+      ``render_fps`` 25 (was 10, and human mode drew every step); the frame has four panels.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
@@ -376,7 +379,8 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
                     self._warned_headless = True
                     warn_headless(backend)
             self._fig = AxisFigure(window=window)
-        return self._fig.draw(self._trace)
+        frame = self._fig.draw(self._trace)
+        return frame if self.render_mode == "rgb_array" else None
 
     def close(self) -> None:
         if self._fig is not None:

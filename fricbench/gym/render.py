@@ -199,8 +199,8 @@ class AxisFigure:
         v = np.concatenate([-np.geomspace(v_max, lin * 1e-2, 200), [0.0],
                             np.geomspace(lin * 1e-2, v_max, 200)])
         f = tr.friction_model.force(v)
-        ax_f.plot(v * 1e3, f, color="0.3", lw=1.5,
-                  label=f"{tr.friction_model.id} law F(v), steady state")
+        (self.curve,) = ax_f.plot(v * 1e3, f, color="0.3", lw=1.5,
+                                  label=f"{tr.friction_model.id} law F(v), steady state")
         ax_f.set_xscale("symlog", linthresh=lin * 1e3, linscale=0.5)
         ax_f.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
         ax_f.set_xlim(-v_max * 1e3, v_max * 1e3)
