@@ -100,13 +100,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from fricbench.axis import simulate
-    from fricbench.axis.export import plot_run, write_csv
+    from fricbench.axis.export import plot_ballbar, plot_run, write_csv
     from fricbench.gym import get_spec
     from fricbench.trajectories import make_trajectory
 
     spec = get_spec(args.env)
     axis = spec.axis
     ref = make_trajectory(args.trajectory, ts=axis.controller.ts)
+    if args.polar and ref.name != "circle":
+        raise ValueError(f"--polar {args.polar}: the ballbar plot is drawn for the circle "
+                         f"trajectory, not {args.trajectory!r} (use --trajectory circle)")
     res = simulate(axis, ref, seed=args.seed)
     if args.csv:
         cols = write_csv(res, args.csv)
@@ -114,6 +117,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.plot:
         plot_run(res, f"{args.env} on {args.trajectory}", args.plot)
         print(f"wrote {args.plot}")
+    if args.polar:
+        k = plot_ballbar(res, f"{args.env} on {args.trajectory}: ballbar (radial error)",
+                         args.polar)
+        print(f"wrote {args.polar} (radial error magnified x{k:g})")
     err = np.atleast_2d(res.error) * 1e6
     print(f"{args.env} / {args.trajectory}: max |e| = {np.abs(err).max():.2f} um, "
           f"rms = {np.sqrt((err**2).mean()):.2f} um over {res.t[-1]:.2f} s")
@@ -329,6 +336,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the run as columns t, x_ref, x, u (s, m, m, N)")
     p.add_argument("--plot", metavar="FILE.png",
                    help="write a PNG of reference, position and error")
+    p.add_argument("--polar", metavar="FILE.png",
+                   help="circle only: write the ballbar picture, a polar plot of the radius "
+                        "with the radial error magnified (scale written on the plot)")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser(

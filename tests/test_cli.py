@@ -100,6 +100,18 @@ def test_simulate_writes_csv_and_plot(tmp_path: Path) -> None:
     assert png.stat().st_size > 10_000
 
 
+def test_simulate_writes_the_ballbar_plot_of_a_circle(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    polar = tmp_path / "ballbar.png"
+    assert main(["simulate", "--env", "fricbench/CircleContouring-v0", "--trajectory", "circle",
+                 "--polar", str(polar)]) == 0
+    assert polar.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "radial error magnified x" in capsys.readouterr().out
+    other = tmp_path / "no.png"
+    assert main(["simulate", "--trajectory", "s_curve", "--polar", str(other)]) == 2
+    assert "circle" in capsys.readouterr().err and not other.exists()
+
+
 def test_unknown_env_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["simulate", "--env", "fricbench/PaperAxs-v0"]) != 0
     assert "did you mean" in capsys.readouterr().err
