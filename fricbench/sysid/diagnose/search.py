@@ -68,6 +68,13 @@ class SearchSettings:
     ----------
     min_gain : float
         Required ``-ln`` of the held-out error ratio, whatever the effect.
+    min_gain_position_other : float
+        Required ``-ln`` ratio of an effect that is not friction (backlash, cogging, thermal
+        drift, position-dependent friction) judged on the free-run position: a held-out cut of
+        about 22 %. The loop model is never exact on a run it did not write (a controller of
+        another structure, a semi-closed loop), and a flexible effect absorbs a few per cent
+        of any mismatch: on the second simulator of the tests, 16 of 21 falsely named effects
+        cut the held-out error by less than 25 %, 2 of 25 present ones did.
     gain_per_param : float
         Extra required ``-ln`` ratio per parameter of the effect (complexity penalty).
     min_force_share : float
@@ -85,6 +92,7 @@ class SearchSettings:
     """
 
     min_gain: float = 0.03
+    min_gain_position_other: float = 0.25
     gain_per_param: float = 0.01
     min_force_share: float = 0.005
     min_position_share: float = 0.5
@@ -93,9 +101,18 @@ class SearchSettings:
     n_confirm: int = 2
     candidates: tuple[str, ...] = field(default_factory=effect_names)
 
-    def required(self, n_params: int) -> float:
-        """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters."""
-        return self.min_gain + self.gain_per_param * n_params
+    def required(self, n_params: int, effect: str | None = None,
+                 judged_on: str = "effort") -> float:
+        """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters.
+
+        A non-friction ``effect`` judged on the position needs
+        :attr:`min_gain_position_other` instead of :attr:`min_gain`.
+        """
+        base = self.min_gain
+        if (effect is not None and judged_on.startswith("position")
+                and not get_effect(effect).friction):
+            base = max(base, self.min_gain_position_other)
+        return base + self.gain_per_param * n_params
 
 
 @dataclass
@@ -395,7 +412,8 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> str | None
 
 
 def _pick(scores: list[CandidateScore], settings: SearchSettings) -> CandidateScore | None:
-    ok = [s for s in scores if s.size_ok and s.gain >= settings.required(s.n_params)]
+    ok = [s for s in scores if s.size_ok
+          and s.gain >= settings.required(s.n_params, s.effect, s.judged_on)]
     if not ok:
         return None
     return max(ok, key=lambda s: s.gain / s.n_params)
@@ -747,7 +765,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         winner, full = accepted
         runners_up = {sc.effect for sc in scores if sc is not winner and sc.size_ok
                       and sc.judged_on == "position"
-                      and sc.gain >= settings.required(sc.n_params)}
+                      and sc.gain >= settings.required(sc.n_params, sc.effect, sc.judged_on)}
         step = Step(winner.effect, full.model, full.y, _rms(prep.x - full.y),
                     float(np.max(np.abs(prep.x - full.y))), None, scores, winner.heldout_ratio)
         steps.append(step)

@@ -22,6 +22,7 @@ class AsymmetricFriction(Effect):
 
     name = "asymmetric_friction"
     kind = "force"
+    friction = True
     requires = ("coulomb_friction",)
     needs_reversals = True
     summary = "friction levels (Coulomb and viscous) that depend on the direction"

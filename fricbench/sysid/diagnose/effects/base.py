@@ -74,6 +74,10 @@ class Effect(ABC):
         The entry its inverse-dynamics regressors are nonlinear in (searched, not solved).
     period_parameter : int or None
         The entry that is a spatial period, m (starts within 2 % of each other are one start).
+    friction : bool
+        A friction term (Coulomb, Stribeck, an offset, asymmetric levels): the first suspect of
+        any servo axis. Other effects are claims that need stronger evidence when judged on the
+        position (:attr:`SearchSettings.min_gain_position_other`).
     periodic : bool
         The effect is a periodic term, so a period longer than the stroke is an artefact (a
         level change); False for a smooth variation along the stroke described by a period.
@@ -95,6 +99,7 @@ class Effect(ABC):
     idim_nonlinear: ClassVar[int | None] = None
     period_parameter: ClassVar[int | None] = None
     periodic: ClassVar[bool] = True
+    friction: ClassVar[bool] = False
     n_starts: ClassVar[int] = 1
     always_fitted: ClassVar[bool] = False
 

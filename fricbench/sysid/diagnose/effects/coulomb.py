@@ -17,6 +17,7 @@ class CoulombFriction(Effect):
 
     name = "coulomb_friction"
     kind = "force"
+    friction = True
     needs_reversals = True
     summary = "a friction force of constant level opposing the motion"
     parameters = (CL.I_FC,)

@@ -17,6 +17,7 @@ class ForceOffset(Effect):
 
     name = "force_offset"
     kind = "force"
+    friction = True
     summary = "a constant force (gravity, cable drag, a drive or sensor offset)"
     parameters = (CL.I_OFF,)
     force_parameters = (CL.I_OFF,)

@@ -23,6 +23,7 @@ class StribeckFriction(Effect):
 
     name = "stribeck_friction"
     kind = "force"
+    friction = True
     requires = ("coulomb_friction",)
     needs_reversals = True
     summary = "extra friction at low speed that decays with a Stribeck velocity"
