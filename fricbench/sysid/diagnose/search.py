@@ -31,6 +31,7 @@ the position residual is at the noise floor of a free-run prediction.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -302,9 +303,10 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 f"({n_par} par){'' if sc.size_ok else ' too small'}")
         # force effects first: an output effect cannot change the effort, and while a force
         # effect is missing the position residual it leaves can look like an output effect.
-        # A winner must also keep the free-run position of the run (never fitted by the
-        # effort search, so held out from it) within POSITION_TOLERANCE of the current
-        # model's, and must not be an artefact; else the next candidate is tried.
+        # A winner must not be an artefact; else the next candidate is tried. The free-run
+        # position is checked on the final model (:func:`_position_prune`): one effect alone
+        # may worsen it while the pair it belongs to improves it (Coulomb friction without
+        # the cogging that dominates the effort).
         accepted: tuple[CandidateScore, GreyBox, np.ndarray] | None = None
         pool = list(scores)
         while accepted is None:
@@ -320,12 +322,6 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 new = _output_fit(new, prep, b, w, None).model
             y_new, _ = simulate_position(new, prep, w)
             why = artefact(new, winner.effect, prep, b)
-            rms_new = _rms(prep.x - y_new)
-            if why is None and not rms_new <= (1.0 + POSITION_TOLERANCE) * cur.position_rms:
-                why = (f"{winner.effect}: it cuts the held-out effort error "
-                       f"({100 * (1 - winner.heldout_ratio):.1f} %) but makes the free-run "
-                       f"position worse ({cur.position_rms:.4g} -> {rms_new:.4g} "
-                       f"{_unit(prep)} rms)")
             if why is not None:
                 winner.size_ok = False
                 winner.note = (winner.note + "; " if winner.note else "") + "rejected: " + why
@@ -345,6 +341,41 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
         log(f"  + {winner.effect}: effort relerr {step.effort_relerr_pct:.3f} %, position rms "
             f"{step.position_rms:.3g} {_unit(prep)}")
     return steps, reason, floor
+
+
+def _refit_without(model: GreyBox, name: str, idim: InverseDynamics) -> GreyBox:
+    """``model`` without effect ``name``, its force terms refitted to the effort."""
+    m = model.without(name)
+    if get_effect(name).kind == "force":
+        m = m.copy(plant=idim.fit(m.effects, m.plant))
+    return m
+
+
+def _position_prune(model: GreyBox, prep: Prepared, idim: InverseDynamics,
+                    w: np.ndarray | None, log: Callable[[str], None]
+                    ) -> list[tuple[str, float, float]]:
+    """Effects of ``model`` that make its free-run position worse, removed one at a time.
+
+    The effort search never fits the free-run position, so it is held out from it. Each
+    round removes the effect whose removal (the force terms refitted without it) lowers the
+    free-run rms the most, while the model with it is worse by more than
+    :data:`POSITION_TOLERANCE`. Returns ``(effect, rms with, rms without)`` per removal.
+    """
+    out: list[tuple[str, float, float]] = []
+    y, _ = simulate_position(model, prep, w)
+    rms = _rms(prep.x - y)
+    while model.effects:
+        trials = [_refit_without(model, e, idim) for e in model.effects]
+        ys = simulate_models(trials, prep, w)[0]
+        rms_without = [_rms(prep.x - yy) for yy in ys]
+        k = int(np.argmin(rms_without))
+        if not rms > (1.0 + POSITION_TOLERANCE) * rms_without[k]:
+            break
+        out.append((model.effects[k], rms, rms_without[k]))
+        log(f"    {model.effects[k]} makes the free-run position worse: {rms:.4g} without it "
+            f"{rms_without[k]:.4g} {_unit(prep)} rms")
+        model, rms = trials[k], rms_without[k]
+    return out
 
 
 def _zero_effect(p: np.ndarray, name: str, effects: tuple[str, ...]) -> np.ndarray:
@@ -853,10 +884,29 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     if idim is not None:
         steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log,
                                                    warnings)
+        # no effect may make the free-run position worse: prune the final model, and search
+        # again without what was pruned (so that every step is one the final model keeps)
+        for _ in range(len(settings.candidates)):
+            pruned = _position_prune(steps[-1].model, prep, idim, w, log)
+            if not pruned:
+                break
+            for name, with_, without in pruned:
+                ratio = next((st.heldout_ratio for st in steps if st.effect == name), None)
+                cut = f" ({100 * (1 - ratio):.1f} % held-out effort error cut)" if ratio else ""
+                warnings.append(f"rejected {name}: it is significant on the effort{cut} but "
+                                f"makes the free-run position worse ({without:.4g} -> "
+                                f"{with_:.4g} {_unit(prep)} rms)")
+            dropped = {name for name, _, _ in pruned}
+            settings = dataclasses.replace(settings, candidates=tuple(
+                c for c in settings.candidates if c not in dropped))
+            steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log,
+                                                       warnings)
     else:
         steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log, jac,
                                                       warnings, alt_loops)
-    return SearchResult(steps, reason, floor, time.perf_counter() - t0, warnings)
+    # a repeated search rejects the same artefacts again: each warning once
+    return SearchResult(steps, reason, floor, time.perf_counter() - t0,
+                        list(dict.fromkeys(warnings)))
 
 
 def step_parameters(step: Step, force_unit: str) -> dict[str, dict[str, float]]:
