@@ -10,6 +10,7 @@ import inspect
 from typing import Any
 
 from fricbench.compensators.base import (
+    CATEGORIES,
     Compensator,
     CompensatorError,
     EpisodeContext,
@@ -19,6 +20,7 @@ from fricbench.compensators.base import (
 from fricbench.registry import Registry
 
 __all__ = [
+    "CATEGORIES",
     "Compensator",
     "CompensatorError",
     "EpisodeContext",

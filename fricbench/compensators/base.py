@@ -30,12 +30,24 @@ from fricbench.gym.task import FEATURES, N_BASE_FEATURES, ObservationConfig, Tas
 from fricbench.trajectories import Reference
 
 __all__ = [
+    "CATEGORIES",
     "Compensator",
     "CompensatorError",
     "EpisodeContext",
     "NotFittedError",
     "feature_index",
 ]
+
+
+CATEGORIES = ("trials", "model", "online", "policy")
+"""What a compensator uses beyond the scored run (:attr:`Compensator.category`).
+
+``trials``: rehearses the scored reference on the machine before it is scored (ILC);
+``model``: fitted in :meth:`Compensator.fit` on training runs of the machine (predictors,
+friction feedforward, pre-compensation); ``online``: learns nothing beforehand and adapts while
+it runs (observers; ``none`` too, which uses nothing at all); ``policy``: learned offline on
+other references and plants (RL). Leaderboards rank within each category and overall.
+"""
 
 
 class CompensatorError(RuntimeError):
@@ -112,11 +124,16 @@ class Compensator(abc.ABC):
         reference offset for pre-compensation).
     learns : bool
         Whether :meth:`fit` must be called before use.
+    category : {"trials", "model", "online", "policy"}
+        What it uses beyond the scored run (:data:`CATEGORIES`); every registered compensator
+        declares one (the registry's conformance test checks it), and leaderboards rank within
+        each.
     """
 
     id: str = ""
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = False
+    category: ClassVar[str] = ""
 
     def __init__(self) -> None:
         self._context: EpisodeContext | None = None

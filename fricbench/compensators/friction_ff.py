@@ -197,6 +197,7 @@ class FrictionFeedforward(Compensator):
     id = "friction-ff"
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = True
+    category: ClassVar[str] = "model"
 
     def __init__(self, *, n_runs: int = 4, run_duration: float = 20.0, delta: float = 2.0,
                  v_eps: float | None = None, advance: int | None = None, gain: float = 1.0,

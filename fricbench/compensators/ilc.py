@@ -122,6 +122,7 @@ class IterativeLearningControl(Compensator):
     id = "ilc"
     action_mode: ClassVar[str] = "offset"
     learns: ClassVar[bool] = False
+    category: ClassVar[str] = "trials"
     #: preferred env ``action_scale`` in offset mode, m per unit action
     action_scale: ClassVar[float] = 1.0e-4
 

@@ -116,6 +116,7 @@ class KalmanDisturbanceObserver(Compensator):
     id = "kalman"
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = False
+    category: ClassVar[str] = "online"
 
     def __init__(self, *, bandwidth: float = 1000.0, gain: float = 1.0,
                  max_force: float | None = None) -> None:

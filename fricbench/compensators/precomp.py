@@ -66,6 +66,7 @@ class Precompensation(Compensator):
     id = "precomp"
     action_mode: ClassVar[str] = "offset"
     learns: ClassVar[bool] = True
+    category: ClassVar[str] = "model"
     #: preferred env ``action_scale`` in offset mode, m per unit action
     action_scale: ClassVar[float] = 1.0e-4
 

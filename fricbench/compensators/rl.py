@@ -55,6 +55,7 @@ class RLCompensator(Compensator):
 
     action_mode: ClassVar[str] = "force"
     learns: ClassVar[bool] = True
+    category: ClassVar[str] = "policy"
 
     def __init__(self, *, algo: str = "sac", policy: str | Path | None = None) -> None:
         super().__init__()

@@ -10,6 +10,7 @@ import pytest
 
 from fricbench.axis import simulate
 from fricbench.compensators import (
+    CATEGORIES,
     EpisodeContext,
     NotFittedError,
     compensator_registry,
@@ -79,6 +80,18 @@ def test_class_attributes(cid: str) -> None:
     assert isinstance(comp.learns, bool)
     if comp.action_mode == "offset":
         assert float(type(comp).action_scale) > 0.0  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("cid", _ids())
+def test_declares_a_category(cid: str) -> None:
+    """Every registered compensator says what it uses: trials, model, online or policy."""
+    comp = make_compensator(cid, **FAST.get(cid, {}))
+    assert type(comp).category in CATEGORIES, (cid, type(comp).category)
+    # what it declares agrees with what it does: a model is fitted, trials need no fit
+    if type(comp).category == "model":
+        assert comp.learns
+    if type(comp).category in ("trials", "online"):
+        assert not comp.learns
 
 
 @pytest.mark.parametrize("cid", _ids())
