@@ -229,13 +229,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     try:
         for rec in run_benchmark(envs, comps, args.seeds, args.trajectories,
                                  backend=args.backend, n_jobs=args.jobs, address=args.address,
-                                 comp_kwargs=comp_kwargs):
+                                 comp_kwargs=comp_kwargs, nominal=args.nominal):
             records.append(rec)
     except KeyboardInterrupt:
         interrupted = True
     command = "fricbench " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else \
         "fricbench bench"
     descriptions = {e: (get_spec(e).description, get_spec(e).fit_on) for e in envs}
+    if args.out is None:
+        args.out = "leaderboards/nominal" if args.nominal else "leaderboards"
     paths = write_leaderboards(records, args.out, command, _git_commit(), descriptions)
     failed = [r for r in records if r.status != "ok"]
     for p in paths:
@@ -370,16 +372,24 @@ def build_parser() -> argparse.ArgumentParser:
                         "'[ilc]' then 'gain = 0.3' (quote ids with a colon: [\"precomp:tf\"]). "
                         "The settings of each run are in the tables and CSV")
     p.add_argument("--trajectories", nargs="+", help="override each env's trajectory set")
-    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2],
-                   help="seeds, each a separate run (default: 0 1 2)")
+    p.add_argument("--seeds", nargs="+", type=int, default=list(range(10)),
+                   help="seeds, each a machine of its own: a plant drawn around the env's "
+                        "nominal axis, its measurement noise and its own fits (default: 0 to "
+                        "9)")
+    p.add_argument("--nominal", action="store_true",
+                   help="run the env's nominal, noise-free axis on every seed, each "
+                        "compensator fitted once (the axis of 'fricbench reproduce' and the "
+                        "docs' figures; the seeds are copies); writes to leaderboards/nominal "
+                        "unless --out is given")
     p.add_argument("--backend", choices=("joblib", "ray"), default="joblib",
                    help="run in local processes (joblib) or on a Ray cluster "
                         "(default: %(default)s)")
     p.add_argument("--address", help="Ray cluster address (default: a local instance)")
     p.add_argument("--jobs", type=int, default=2,
                    help="parallel processes with --backend joblib (default: %(default)s)")
-    p.add_argument("--out", default="leaderboards", metavar="DIR",
-                   help="folder of the leaderboard tables and plots (default: %(default)s)")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="folder of the leaderboard tables and plots (default: leaderboards, "
+                        "leaderboards/nominal with --nominal)")
     p.set_defaults(func=_cmd_bench)
 
     for name in _PLUGGED:

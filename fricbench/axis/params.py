@@ -134,6 +134,10 @@ class Effects:
         Standard deviation of additive measurement noise, m.
     delay_samples : int
         Pure delay of the current command, samples (0..16).
+    current_noise_std : float
+        Standard deviation of the current-measurement noise, A: added to the motor current the
+        drive reports (the observation's motor force, ``SimulationResult.u``), not to the
+        current that drives the axis (the current loop is taken as ideal at these bandwidths).
     """
 
     backlash: float = 0.0
@@ -150,6 +154,7 @@ class Effects:
     quantization: float = 0.0
     noise_std: float = 0.0
     delay_samples: int = 0
+    current_noise_std: float = 0.0
 
     def __post_init__(self) -> None:
         check_range("backlash", self.backlash, 0.0, 1e-3, "m")
@@ -166,6 +171,7 @@ class Effects:
         check_range("quantization", self.quantization, 0.0, 1e-4, "m")
         check_range("noise_std", self.noise_std, 0.0, 1e-4, "m")
         check_int("delay_samples", self.delay_samples, 0, K.DELAY_MAX)
+        check_range("current_noise_std", self.current_noise_std, 0.0, 100.0, "A")
 
 
 def _coerce(cls: type, value: Any, name: str) -> Any:

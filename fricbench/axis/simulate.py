@@ -32,7 +32,8 @@ class SimulationResult:
     x_true : ndarray
         True table position, m.
     u : ndarray
-        Motor force, N.
+        Motor force as the drive reports it (``kt`` times the current, with the
+        current-measurement noise ``effects.current_noise_std`` when enabled), N.
     friction : ndarray
         Mean friction force over each sample, N.
     """
@@ -123,7 +124,8 @@ def simulate(
     reference : Reference
         Sampled at the controller's ``ts``.
     seed : int or None
-        Seed of the measurement noise (only drawn when ``noise_std > 0``).
+        Seed of the measurement noise (only drawn when ``noise_std > 0``; the current noise,
+        when ``current_noise_std > 0``, is drawn after it from the same generator).
     u_force : ndarray, optional
         Compensation force added at the velocity-loop output, N, shape (K,) or (D, K).
     u_offset : ndarray, optional
@@ -150,14 +152,20 @@ def simulate(
     uf = _as_rows(u_force, d, k, "u_force")
     uo = _as_rows(u_offset, d, k, "u_offset")
     batch = AxisBatch(axes)
+    rng = np.random.default_rng(seed)
     if any(a.needs_noise for a in axes):
-        noise = np.random.default_rng(seed).standard_normal((d, k + 1))
+        noise = rng.standard_normal((d, k + 1))
     else:
         noise = np.zeros((d, k + 1))
     x0 = xr[:, 0] + (0.0 if uo is None else uo[:, 0])
     batch.reset(x0, vr[:, 0], noise[:, 0])
     x_true, x_meas, force, fric = batch.run(xr, vr, ar, uf, uo,
                                             np.ascontiguousarray(noise[:, 1:]))
+    i_noise = np.array([a.effects.current_noise_std for a in axes])
+    if np.any(i_noise > 0.0):
+        kt = np.array([a.controller.kt for a in axes])
+        # F_meas = kt (i + n_i), n_i ~ N(0, current_noise_std^2)
+        force = force + (kt * i_noise)[:, None] * rng.standard_normal(force.shape)
     squeeze = (lambda z: z[0] if d == 1 else z)
     return SimulationResult(
         t=reference.t, x_ref=squeeze(xr), x=squeeze(x_meas), x_true=squeeze(x_true),

@@ -11,6 +11,11 @@ Each row records the constructor keywords its compensator was made with beyond t
 defaults (``compensator_kwargs``, JSON; ``fricbench bench --compensator-kwargs``), and the
 ``.md`` lists them under "Compensator settings", so a table says what settings produced it.
 
+Each ``.md`` reports per cell the median over seeds and its 95 % bootstrap interval of the max
+and the RMS error and of the cut against ``none`` (:mod:`fricbench.bench.statistics`), and ranks
+the compensators overall and within each category (:data:`fricbench.compensators.CATEGORIES`),
+marking neighbours whose paired per-seed difference is not significant.
+
 Per-step ``act`` times depend on the machine and its load, so they are kept out of these
 tables: they go to ``timings/<env>.csv`` (untracked: ``leaderboards/timings/`` is in
 ``.gitignore``), and a re-run of the same code on the same seeds rewrites the tables with the
@@ -38,13 +43,23 @@ import numpy as np
 
 from fricbench._atomic import atomic_write
 from fricbench.bench.runner import EpisodeRecord
+from fricbench.bench.statistics import (
+    CONFIDENCE,
+    N_RESAMPLES,
+    Interval,
+    cell_rng,
+    median_ci,
+    paired_difference,
+)
 
 __all__ = [
     "CSV_COLUMNS",
     "FAILURE_COLUMNS",
     "TARGETS",
     "TIMING_COLUMNS",
+    "compensator_category",
     "env_file_stem",
+    "ranking",
     "summarise",
     "write_leaderboards",
 ]
@@ -54,7 +69,7 @@ _KEY = ("env", "compensator", "trajectory", "seed")
 # JSON with sorted keys ("" for none)
 CSV_COLUMNS = (*_KEY, "status", "max_um", "rms_um", "reversal_peak_um",
                "circular_deviation_um", "reversal_spike_um", "improvement_max_pct", "effort_rms",
-               "effort_unit", "reason", "compensator_kwargs")
+               "effort_unit", "reason", "compensator_kwargs", "category", "plant")
 # untracked: timings/<env>.csv
 TIMING_COLUMNS = (*_KEY, "step_us")
 # <env>.failures.csv: the latest failure of each cell not run successfully since
@@ -88,8 +103,23 @@ def _record_rows(records: Iterable[EpisodeRecord]) -> list[dict[str, str]]:
             "reversal_spike_um": _um(r.reversal_spike), "improvement_max_pct": "",
             "effort_rms": eff, "effort_unit": {"N": "N", "m": "um"}.get(r.effort_unit, ""),
             "reason": r.reason, "compensator_kwargs": _settings_text(r.compensator_kwargs),
+            "category": compensator_category(r.compensator), "plant": r.plant,
         })
     return rows
+
+
+def compensator_category(comp_id: str) -> str:
+    """The category a compensator declares (``Compensator.category``); ``""`` when its class
+    cannot be loaded or declares none."""
+    from fricbench.compensators import CATEGORIES, PRECOMP_PREFIX, compensator_registry
+
+    if comp_id.startswith(PRECOMP_PREFIX):
+        return "model"
+    try:
+        cat = str(getattr(compensator_registry.spec(comp_id).load(), "category", ""))
+    except Exception:  # noqa: BLE001 - an unloadable plug-in still gets its rows written
+        return ""
+    return cat if cat in CATEGORIES else ""
 
 
 def _settings_text(kwargs: dict[str, object]) -> str:
@@ -163,7 +193,7 @@ def _improvements(rows: list[dict[str, str]]) -> None:
             if r["compensator"] == "none" and r["status"] == "ok" and r["max_um"]}
     for r in rows:
         ref = base.get((r["trajectory"], r["seed"]))
-        if r["status"] == "ok" and r["max_um"] and ref:
+        if r["status"] == "ok" and r["max_um"] and ref and float(ref) > 0.0:
             r["improvement_max_pct"] = f"{100.0 * (1.0 - float(r['max_um']) / float(ref)):.1f}"
         else:
             r["improvement_max_pct"] = ""
@@ -188,47 +218,167 @@ def summarise(rows: list[dict[str, str]]) -> dict[str, dict[str, dict[str, float
             for c, tr in acc.items()}
 
 
+def _per_seed(rows: list[dict[str, str]], comp: str, traj: str, key: str) -> dict[int, float]:
+    """``{seed: value}`` of the ok rows of one cell (finite values only)."""
+    out = {}
+    for r in rows:
+        if r["compensator"] == comp and r["trajectory"] == traj and r["status"] == "ok" \
+                and r.get(key):
+            v = float(r[key])
+            if math.isfinite(v):
+                out[int(r["seed"])] = v
+    return out
+
+
+def _cell(rows: list[dict[str, str]], seeds: Sequence[int], comp: str, traj: str, key: str,
+          fmt: str = ".2f", sign: bool = False) -> str:
+    vals = _per_seed(rows, comp, traj, key)
+    if not vals:
+        fails = any(r["compensator"] == comp and r["trajectory"] == traj and
+                    r["status"] != "ok" for r in rows)
+        return "failed" if fails else "-"
+    ci = median_ci(list(vals.values()), cell_rng(seeds, comp, traj, key))
+    return ci.text(fmt, sign)
+
+
+def _scores(rows: list[dict[str, str]], comp: str, trajs: Sequence[str]) -> dict[int, float]:
+    """Per seed: the mean over ``trajs`` of the cut of max |e| against ``none`` (%), for the
+    seeds on which every trajectory has an ok row of ``comp`` and of ``none``."""
+    cuts = [_per_seed(rows, comp, t, "improvement_max_pct") for t in trajs]
+    common = set.intersection(*(set(c) for c in cuts)) if cuts else set()
+    return {s: float(np.mean([c[s] for c in cuts])) for s in sorted(common)}
+
+
+def ranking(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequence[str],
+            seeds: Sequence[int], label: str = "overall",
+            ) -> list[tuple[str, Interval, Interval | None]]:
+    """Rank ``comps`` by the median over seeds of their mean cut against ``none``.
+
+    Returns ``(compensator, its score interval, paired difference to the next one or None)``
+    best first; the difference (this one minus the next, per seed) is not significant when its
+    interval contains 0. Compensators without a complete seed are left out.
+    """
+    scored = [(c, _scores(rows, c, trajs)) for c in comps]
+    scored = [(c, sc) for c, sc in scored if sc]
+    with_ci = [(c, sc, median_ci(list(sc.values()), cell_rng(seeds, c, "score")))
+               for c, sc in scored]
+    with_ci.sort(key=lambda x: (-x[2].median, x[0]))
+    out = []
+    for i, (c, sc, ci) in enumerate(with_ci):
+        diff = None
+        if i + 1 < len(with_ci):
+            nxt = with_ci[i + 1]
+            diff = paired_difference(sc, nxt[1], cell_rng(seeds, label, c, nxt[0]))
+        out.append((c, ci, diff))
+    return out
+
+
+def _ranking_table(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequence[str],
+                   seeds: Sequence[int], label: str, cats: dict[str, str]) -> list[str]:
+    ranked = ranking(rows, comps, trajs, seeds, label)
+    if not ranked:
+        return ["(no compensator with a complete seed)\n"]
+    lines = ["| rank | compensator | category | mean cut of max abs(e) (%) | to the next (paired, "
+             "%) |\n", "|---|---|---|---|---|\n"]
+    rank = 1
+    for i, (c, ci, diff) in enumerate(ranked):
+        if diff is None:
+            vs = ""
+        elif diff.excludes_zero():
+            vs = diff.text(".1f", sign=True)
+        else:
+            vs = diff.text(".1f", sign=True) + " **n.s.**"
+        tie = i > 0 and ranked[i - 1][2] is not None and \
+            not ranked[i - 1][2].excludes_zero()  # type: ignore[union-attr]
+        shown = f"= {rank}" if tie else str(i + 1)
+        if not tie:
+            rank = i + 1
+        lines.append(f"| {shown} | `{c}` | {cats.get(c, '') or '-'} | {ci.text('.1f', True)} "
+                     f"| {vs} |\n")
+    return lines
+
+
 def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, str]],
               command: str, commit: str, description: str, fit_on: str) -> str:
+    from fricbench.compensators import CATEGORIES
+
     summary = summarise(rows)
     trajs = sorted({r["trajectory"] for r in rows})
     comps = sorted({r["compensator"] for r in rows}, key=lambda c: (c != "none", c))
     seeds = sorted({int(r["seed"]) for r in rows})
+    cats = {c: compensator_category(c) for c in comps}
+    plants = sorted({r.get("plant", "") or "nominal" for r in rows})
     circle = any(r["circular_deviation_um"] for r in rows)
     out = io.StringIO()
     out.write(f"# Leaderboard: `{env_id}`\n\n{description}\n\n")
-    out.write(f"- Made by: `{command}`\n- Commit: `{commit}`\n- Seeds: {seeds}\n")
+    out.write(f"- Made by: `{command}`\n- Commit: `{commit}`\n- Seeds: {seeds} "
+              f"(n = {len(seeds)})\n")
+    if plants == ["seed"]:
+        out.write("- Plants: each seed is a machine drawn around the env's nominal axis "
+                  "(friction levels, Stribeck velocity, mass, damping; encoder and current "
+                  "noise: `fricbench/bench/plants.py`), the same for every compensator; each "
+                  "compensator that learns is fitted on training runs of that seed's plant\n")
+    elif plants == ["nominal"]:
+        out.write("- Plants: the env's nominal, noise-free axis on every seed (`--nominal`): "
+                  "the seeds are copies and the intervals collapse\n")
+    else:
+        out.write("- Plants: rows of drawn plants and of the nominal axis mixed (re-run every "
+                  "seed in one mode)\n")
     if fit_on != env_id:
         out.write(f"- Generalisation case: compensators fitted on `{fit_on}`\n")
     out.writelines(_settings_lines(rows, comps))
-    out.write("- Metric: median over seeds of max |e| in um (actual tracking error; contour "
-              "error for two axes), and its cut against `none` in %. Raw rows: the CSV beside "
-              "this file.\n\n")
-    head = "| compensator | " + " | ".join(trajs) + " | reversal peak (um, median) |"
-    if circle:
-        head += " circular dev. (um) |"
-    out.write(head + "\n")
-    out.write("|" + "---|" * (len(trajs) + 2 + (1 if circle else 0)) + "\n")
-    for c in comps:
-        cells = []
-        for t in trajs:
-            m = summary.get(c, {}).get(t)
-            if not m or "max_um" not in m:
-                fails = [r["reason"] for r in rows if r["compensator"] == c and
-                         r["trajectory"] == t and r["status"] != "ok"]
-                cells.append("failed" if fails else "-")
+    out.write(f"- Statistics: per cell the median over seeds and its {CONFIDENCE:.0%} bootstrap "
+              f"confidence interval [low, high] (`scipy.stats.bootstrap`, percentile method, "
+              f"{N_RESAMPLES} resamples, generator seeded from the seeds and the cell: the "
+              "same rows give the same table). Cut against `none`: per seed "
+              "100 (1 - max/max_none) on the same plant. Raw per-seed rows: the CSV beside "
+              "this file.\n")
+    out.write("- Categories (what a compensator uses beyond the scored run): `trials` "
+              "rehearses the scored reference, `model` is fitted on training runs, `online` "
+              "adapts while it runs, `policy` is learned offline. `none` (no compensation) is "
+              "the reference of every category.\n")
+    out.write("- Ranking: overall and within each category, by the median over seeds of the "
+              "mean over trajectories of the cut against `none`. *To the next*: the median "
+              "over seeds of the per-seed difference to the next one down and its interval "
+              "(paired bootstrap: seeds share plants); **n.s.** when the interval contains 0, "
+              "and the next one then shares the rank (`= k`).\n\n")
+
+    def table(title: str, key: str, fmt: str, sign: bool, extra: bool) -> None:
+        out.write(f"## {title}\n\n")
+        head = "| compensator | category | " + " | ".join(trajs) + " |"
+        if extra:
+            head += " reversal peak (um, median) |" + (" circular dev. (um) |" if circle else "")
+        out.write(head + "\n")
+        n_cols = len(trajs) + 2 + ((2 if circle else 1) if extra else 0)
+        out.write("|" + "---|" * n_cols + "\n")
+        for c in comps:
+            if sign and c == "none":
                 continue
-            imp = m.get("improvement_max_pct")
-            cells.append(f"{m['max_um']:.2f}" + (f" ({imp:+.0f} %)" if imp is not None and
-                                                   c != "none" and not math.isnan(imp) else ""))
-        rev = _median([m["reversal_peak_um"] for m in summary.get(c, {}).values()
-                       if "reversal_peak_um" in m])
-        line = f"| `{c}` | " + " | ".join(cells) + f" | {rev:.2f} |"
-        if circle:
-            cd = _median([m["circular_deviation_um"] for m in summary.get(c, {}).values()
-                          if "circular_deviation_um" in m])
-            line += f" {cd:.2f} |"
-        out.write(line + "\n")
+            cells = [_cell(rows, seeds, c, t, key, fmt, sign) for t in trajs]
+            line = f"| `{c}` | {cats[c] or '-'} | " + " | ".join(cells) + " |"
+            if extra:
+                line += " " + _fmt(_median([m["reversal_peak_um"] for m in
+                                            summary.get(c, {}).values()
+                                            if "reversal_peak_um" in m])) + " |"
+                if circle:
+                    line += " " + _fmt(_median([m["circular_deviation_um"] for m in
+                                                summary.get(c, {}).values()
+                                                if "circular_deviation_um" in m])) + " |"
+            out.write(line + "\n")
+        out.write("\n")
+
+    table("Max abs(e) (um): median [95 % CI]", "max_um", ".2f", False, True)
+    table("Cut of max abs(e) against `none` (%): median [95 % CI]", "improvement_max_pct",
+          ".1f", True, False)
+    table("RMS error (um): median [95 % CI]", "rms_um", ".3f", False, False)
+    out.write("## Ranking\n\n### Overall\n\n")
+    out.writelines(_ranking_table(rows, comps, trajs, seeds, "overall", cats))
+    for cat in CATEGORIES:
+        members = [c for c in comps if cats[c] == cat and c != "none"]
+        if not members:
+            continue
+        out.write(f"\n### Within `{cat}`\n\n")
+        out.writelines(_ranking_table(rows, ["none", *members], trajs, seeds, cat, cats))
     targets = _target_lines(summary, env_id)
     if targets:
         out.write("\n## Targets (median over seeds, held-out m_serial and curve)\n\n")
@@ -254,6 +404,10 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     for t in plots:
         out.write(f"![{t}](plots/{env_file_stem(env_id)}_{t}.png)\n")
     return out.getvalue()
+
+
+def _fmt(x: float) -> str:
+    return "-" if not math.isfinite(x) else f"{x:.2f}"
 
 
 def _target_lines(summary: dict[str, dict[str, dict[str, float]]], env_id: str) -> list[str]:
@@ -350,6 +504,11 @@ def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str,
                 merged[k] = row
     rows = sorted(merged.values(), key=_sort_key)
     _improvements(rows)
+    cats: dict[str, str] = {}
+    for r in rows:  # derived columns: the category declared now; rows from before plants
+        # were drawn ran the nominal axis
+        r["category"] = cats.setdefault(r["compensator"], compensator_category(r["compensator"]))
+        r["plant"] = r.get("plant") or "nominal"
     fail_rows = sorted(failures.values(), key=_sort_key)
     atomic_write(csv_path, _csv_text(rows, CSV_COLUMNS))
     written = [csv_path]

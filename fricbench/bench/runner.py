@@ -1,7 +1,15 @@
-"""Run every compensator on every benchmark env x trajectory x seed through the env loop."""
+"""Run every compensator on every benchmark env x trajectory x seed through the env loop.
+
+Each seed is a machine: its plant is drawn around the env's nominal axis
+(:mod:`fricbench.bench.plants`), the same for every compensator, and every compensator that
+learns is fitted once per seed on training runs of that seed's plant. ``nominal=True`` runs the
+env's nominal, noise-free axis on every seed, with one fit per env (the benchmark as it was
+before plants were drawn: its seeds are copies).
+"""
 
 from __future__ import annotations
 
+import inspect
 import os
 import time
 import tomllib
@@ -13,7 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from fricbench.axis import Axis
 from fricbench.bench.metrics import score_run
+from fricbench.bench.plants import draw_plant, nominal_told
 from fricbench.compensators import (
     PRECOMP_PREFIX,
     Compensator,
@@ -36,6 +46,7 @@ __all__ = [
     "EpisodeRecord",
     "bench_env",
     "fit_compensators",
+    "plant_axes",
     "plan_benchmark",
     "read_compensator_config",
     "run_benchmark",
@@ -80,7 +91,8 @@ class BenchTask:
 class EpisodeRecord:
     """The outcome of one scored episode (SI units; ``status`` is ``"ok"`` or ``"failed"``;
     ``compensator_kwargs``: the constructor keywords the compensator was made with, beyond its
-    registered defaults)."""
+    registered defaults; ``plant``: ``"seed"`` for the seed's drawn plant, ``"nominal"`` for
+    the env's nominal axis)."""
 
     env: str
     compensator: str
@@ -98,27 +110,46 @@ class EpisodeRecord:
     step_time: float = float("nan")
     n_steps: int = 0
     compensator_kwargs: dict[str, Any] = field(default_factory=dict)
+    plant: str = "seed"
     trace_t: np.ndarray | None = field(default=None, repr=False)
     trace_error: np.ndarray | None = field(default=None, repr=False)
 
 
-def bench_env(env_id: str, compensator: Compensator) -> ServoAxisEnv:
-    """The env of ``env_id`` in the action mode the compensator produces."""
+def plant_axes(env_id: str, seed: int, nominal: bool = False) -> tuple[Axis, Axis]:
+    """``(told, plant)`` of benchmark seed ``seed`` on ``env_id``.
+
+    ``told`` is what compensators know (``context.nominal_axis``: the env's nominal axis with the
+    sensor noise levels), ``plant`` the machine simulated (:func:`~fricbench.bench.plants.
+    draw_plant`). With ``nominal`` both are the env's nominal, noise-free axis.
+    """
+    axis = get_spec(env_id).axis
+    if nominal:
+        return axis, axis
+    return nominal_told(axis), draw_plant(axis, seed)
+
+
+def bench_env(env_id: str, compensator: Compensator, seed: int | None = None,
+              nominal: bool = False) -> ServoAxisEnv:
+    """The env of ``env_id`` in the action mode the compensator produces, on the plant of
+    benchmark seed ``seed`` (:func:`plant_axes`; ``None`` or ``nominal``: the nominal axis)."""
     spec = get_spec(env_id)
     task = spec.task
     if compensator.action_mode != task.action:
         scale = float(getattr(compensator, "action_scale", 1e-4 if
                               compensator.action_mode == "offset" else task.action_scale))
         task = replace(task, action=compensator.action_mode, action_scale=scale)
-    return ServoAxisEnv(axis=spec.axis, task=task)
+    told, plant = plant_axes(env_id, 0 if seed is None else seed, nominal or seed is None)
+    return ServoAxisEnv(axis=told, task=task, plant=plant)
 
 
 def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = False,
-                reference: Reference | None = None) -> EpisodeRecord:
-    """Score ``compensator`` on one episode; any exception becomes a failed record."""
-    rec = EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed)
+                reference: Reference | None = None, nominal: bool = False) -> EpisodeRecord:
+    """Score ``compensator`` on one episode (on the plant of ``task.seed``, or on the nominal
+    axis with ``nominal``); any exception becomes a failed record."""
+    rec = EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed,
+                        plant="nominal" if nominal else "seed")
     try:
-        env = bench_env(task.env, compensator)
+        env = bench_env(task.env, compensator, task.seed, nominal)
         obs, _ = env.reset(seed=task.seed,
                            options={"trajectory": reference or task.trajectory})
         ref = env.reference
@@ -167,10 +198,16 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
 
 
 def _fit_one(comp_id: str, fit_env: str, seed: int,
-             kwargs: Mapping[str, Any] | None = None) -> tuple[Compensator | None, str]:
+             kwargs: Mapping[str, Any] | None = None,
+             plant: Axis | None = None) -> tuple[Compensator | None, str]:
     try:
         comp = make_compensator(comp_id, **(kwargs or {}))
-        comp.fit(fit_env, seed=seed)
+        # a fit without the axis keyword (written before plants were drawn) learns on the
+        # nominal axis: a handicap, never an advantage
+        if plant is not None and "axis" in inspect.signature(comp.fit).parameters:
+            comp.fit(fit_env, seed=seed, axis=plant)
+        else:
+            comp.fit(fit_env, seed=seed)
         return comp, ""
     except Exception as exc:  # noqa: BLE001 - recorded on every row of this compensator
         return None, f"fit failed: {type(exc).__name__}: {exc}"[:300]
@@ -180,18 +217,38 @@ def _fit_one(comp_id: str, fit_env: str, seed: int,
 MapFn = Callable[[Callable[..., Any], list[tuple[Any, ...]]], Iterable[tuple[int, Any]]]
 
 
+FIT_SEED_STRIDE = 100
+"""The fit of plant seed ``s`` uses ``fit_seed + FIT_SEED_STRIDE * s`` (training references and
+noise), apart from the episode seeds and from the fits of the other seeds."""
+
+
 def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
                      map_fn: MapFn, comp_kwargs: CompKwargs | None = None,
-                     ) -> dict[tuple[str, str], tuple[Compensator | None, str]]:
-    """Fit each compensator once per training env (``fit_on`` of each benchmark env).
+                     plant_seeds: Sequence[int] | None = None,
+                     ) -> dict[tuple[str, str, int | None], tuple[Compensator | None, str]]:
+    """Fit each compensator once per training env (``fit_on`` of each benchmark env) and per
+    plant seed.
 
     ``map_fn(fn, arglist)`` yields ``(index, fn(*arglist[index]))`` in any order;
-    ``comp_kwargs`` gives constructor keywords per compensator id.
+    ``comp_kwargs`` gives constructor keywords per compensator id. With ``plant_seeds``, each
+    seed ``s`` gets its own fit on the plant :func:`plant_axes` draws for it, with the fit seed
+    ``seed + FIT_SEED_STRIDE * s``, keyed ``(compensator, fit env, s)``; without, one fit on
+    the nominal axis with ``seed``, keyed ``(compensator, fit env, None)``.
     """
     pairs = sorted({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
     kwargs = comp_kwargs or {}
-    results = dict(map_fn(_fit_one, [(c, f, seed, dict(kwargs.get(c, {}))) for c, f in pairs]))
-    return {pair: results[i] for i, pair in enumerate(pairs)}
+    keys: list[tuple[str, str, int | None]] = []
+    args: list[tuple[Any, ...]] = []
+    for s in (sorted(set(plant_seeds)) if plant_seeds is not None else [None]):
+        for c, f in pairs:
+            keys.append((c, f, s))
+            if s is None:
+                args.append((c, f, seed, dict(kwargs.get(c, {}))))
+            else:
+                args.append((c, f, seed + FIT_SEED_STRIDE * s, dict(kwargs.get(c, {})),
+                             plant_axes(f, s)[1]))
+    results = dict(map_fn(_fit_one, args))
+    return {key: results[i] for i, key in enumerate(keys)}
 
 
 def _indexed(i: int, fn: Callable[..., Any], args: tuple[Any, ...]) -> tuple[int, Any]:
@@ -240,11 +297,12 @@ def _ray_map(address: str | None, progress: Callable[[], None] | None) -> MapFn:
 
 
 def _run_task(comp: Compensator | None, fit_reason: str, task: BenchTask,
-              keep_trace: bool) -> EpisodeRecord:
+              keep_trace: bool, nominal: bool = False) -> EpisodeRecord:
     if comp is None:
         return EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed,
-                             status="failed", reason=fit_reason)
-    return run_episode(comp, task, keep_trace=keep_trace)
+                             status="failed", reason=fit_reason,
+                             plant="nominal" if nominal else "seed")
+    return run_episode(comp, task, keep_trace=keep_trace, nominal=nominal)
 
 
 def _n_axes(env_id: str, trajectory: str | TrajectoryChoice) -> int:
@@ -399,7 +457,8 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
                   seeds: Sequence[int], trajectories: Sequence[str] | None = None,
                   backend: str = "joblib", n_jobs: int = 2, address: str | None = None,
                   fit_seed: int = 1000, progress: bool = True,
-                  comp_kwargs: CompKwargs | None = None) -> Iterator[EpisodeRecord]:
+                  comp_kwargs: CompKwargs | None = None,
+                  nominal: bool = False) -> Iterator[EpisodeRecord]:
     """Fit, then run every (env, compensator, trajectory, seed); yields records as they finish.
 
     Every argument is checked by :func:`plan_benchmark` before anything is fitted. Records come
@@ -412,17 +471,22 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
     comp_ids : sequence of str
         Registered compensator ids.
     seeds : sequence of int
-        Episode seeds (measurement noise and rehearsal seeds), integers >= 0.
+        Seeds, integers >= 0: each draws the plant (:mod:`fricbench.bench.plants`), the
+        episode's measurement noise and the rehearsal seeds, and has its own fits.
     trajectories : sequence of str, optional
         Registered trajectory ids replacing each env's own set.
     backend : {"joblib", "ray"}
         ``joblib`` fans out over local cores; ``ray`` runs the same tasks on a Ray cluster
         (``address`` of a running cluster, or a local instance when None).
     fit_seed : int
-        Seed of every ``fit`` (training data differ from every evaluation episode).
+        Seed of the fits (training data differ from every evaluation episode): seed ``s`` fits
+        with ``fit_seed + FIT_SEED_STRIDE * s`` (with ``nominal``: every fit with ``fit_seed``).
     comp_kwargs : mapping, optional
         Constructor keywords per compensator id (``{"ilc": {"gain": 0.3}}``), over the
         registered defaults; each record carries those of its compensator.
+    nominal : bool
+        Run the env's nominal, noise-free axis on every seed, each compensator fitted once per
+        training env (as ``fricbench reproduce`` and the docs' figures; the seeds are copies).
 
     Raises
     ------
@@ -435,15 +499,17 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
         raise ValueError(f"backend={backend!r}: expected 'joblib' or 'ray'")
     tasks = plan_benchmark(env_ids, comp_ids, seeds, trajectories, comp_kwargs)
     settings = {c: dict(kw) for c, kw in (comp_kwargs or {}).items() if kw}
-    n_fits = len({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
+    n_fits = len({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids}) * (
+        1 if nominal else len(set(seeds)))
     bar = tqdm(total=len(tasks) + n_fits, desc="bench", unit="run", disable=not progress)
     try:
         tick = bar.update
         map_fn = _joblib_map(n_jobs, tick) if backend == "joblib" else _ray_map(address, tick)
-        fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn, settings)
+        fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn, settings,
+                                  None if nominal else seeds)
         first_seed = min(seeds)
-        args = [(*fitted[(t.compensator, get_spec(t.env).fit_on)], t, t.seed == first_seed)
-                for t in tasks]
+        args = [(*fitted[(t.compensator, get_spec(t.env).fit_on, None if nominal else t.seed)],
+                 t, t.seed == first_seed, nominal) for t in tasks]
         for _, rec in map_fn(_run_task, args):
             rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
             yield rec

@@ -140,8 +140,12 @@ class Compensator(abc.ABC):
         self._fitted = not self.learns
 
     # -- learning -----------------------------------------------------------------------------
-    def fit(self, env_id: str, *, seed: int = 0) -> Compensator:
+    def fit(self, env_id: str, *, seed: int = 0, axis: Axis | None = None) -> Compensator:
         """Learn from the training setup of ``env_id`` (its axis, training trajectories).
+
+        ``axis`` is the machine the training runs are recorded on (the benchmark passes each
+        seed's plant, :func:`fricbench.bench.plants.draw_plant`); ``None``: the env's nominal
+        axis. Its parameters are not to be read as known: only its runs are.
 
         The default does nothing; learning compensators override it and set ``_fitted``.
         """

@@ -29,7 +29,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from fricbench._validation import check_int, check_nonneg, check_positive
-from fricbench.axis import simulate
+from fricbench.axis import Axis, simulate
 from fricbench.compensators.base import Compensator, EpisodeContext
 from fricbench.compensators.training_data import env_setup, training_references
 
@@ -230,7 +230,8 @@ class FrictionFeedforward(Compensator):
         self._k = 0
 
     # -- learning -----------------------------------------------------------------------------
-    def fit(self, env_id: str, *, seed: int = 0) -> FrictionFeedforward:
+    def fit(self, env_id: str, *, seed: int = 0,
+            axis: Axis | None = None) -> FrictionFeedforward:
         """Record runs of ``env_id``'s axis on training references, fit, choose the smoothing.
 
         Parameters
@@ -239,14 +240,18 @@ class FrictionFeedforward(Compensator):
             Registered env id (its nominal axis is the machine being commissioned).
         seed : int
             Seed of the training references and of the measurement noise.
+        axis : Axis or None
+            The machine the runs are recorded on (a benchmark seed's plant); ``None``: the
+            env's nominal axis. The viscous term subtracted is the nominal axis's damping.
         """
-        axis, _ = env_setup(env_id)
+        nominal, _ = env_setup(env_id)
+        axis = nominal if axis is None else axis
         refs = training_references(self.n_runs, seed=seed, duration=self.run_duration,
                                    ts=axis.controller.ts)
         runs = [simulate(axis, r, seed=seed + i) for i, r in enumerate(refs)]
         self.model_ = fit_stribeck(np.array([r.u for r in runs]), np.array([r.x for r in runs]),
                                    axis.controller.ts, delta=self.delta)
-        self.nominal_damping_ = axis.mechanics.damping
+        self.nominal_damping_ = nominal.mechanics.damping
         v_grid = self.v_eps_grid if self.v_eps is None else (self.v_eps,)
         a_grid = self.advance_grid if self.advance is None else (self.advance,)
         best = (np.inf, v_grid[0], a_grid[0])

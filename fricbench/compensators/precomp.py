@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from fricbench._validation import check_int, check_positive, check_range
-from fricbench.axis import simulate
+from fricbench.axis import Axis, simulate
 from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
 from fricbench.compensators.training_data import env_setup, training_references
 from fricbench.predictors import make_predictor, predictor_registry
@@ -101,9 +101,11 @@ class Precompensation(Compensator):
         accepted = inspect.signature(entry.load()).parameters
         return {k: v for k, v in (("n_threads", 1), ("verbose", 0)) if k in accepted}
 
-    def fit(self, env_id: str, *, seed: int = 0) -> Precompensation:
-        """Fit the predictor on uncompensated training runs of ``env_id``'s nominal axis."""
-        axis, _ = env_setup(env_id)
+    def fit(self, env_id: str, *, seed: int = 0, axis: Axis | None = None) -> Precompensation:
+        """Fit the predictor on uncompensated training runs of ``env_id``'s nominal axis (or of
+        ``axis``, the machine the runs are recorded on: a benchmark seed's plant)."""
+        if axis is None:
+            axis, _ = env_setup(env_id)
         refs = training_references(self.n_runs, seed=seed, duration=self.run_duration,
                                    ts=axis.controller.ts)
         runs = [simulate(axis, r, seed=seed + i) for i, r in enumerate(refs)]

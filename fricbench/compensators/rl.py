@@ -20,6 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from fricbench._validation import check_choice
+from fricbench.axis import Axis
 from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
 from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
 from fricbench.compensators.training_data import env_setup
@@ -71,8 +72,9 @@ class RLCompensator(Compensator):
         """The policy JSON this compensator loads."""
         return shipped_policy(f"rl-{self.algo}") if self.policy is None else Path(self.policy)
 
-    def fit(self, env_id: str, *, seed: int = 0) -> RLCompensator:
-        """Load the trained policy and check it fits ``env_id`` (no training here).
+    def fit(self, env_id: str, *, seed: int = 0, axis: Axis | None = None) -> RLCompensator:
+        """Load the trained policy and check it fits ``env_id`` (no training here; ``axis``,
+        the machine, is not used: the policy was learned offline).
 
         Raises
         ------

@@ -83,11 +83,16 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Arguments
 
-    ``ServoAxisEnv(axis, task, render_mode)``: ``axis`` (:class:`~fricbench.axis.Axis`),
-    ``task`` (:class:`~fricbench.gym.task.TaskConfig`), ``render_mode`` (``"rgb_array"`` or
+    ``ServoAxisEnv(axis, task, render_mode, plant)``: ``axis`` (:class:`~fricbench.axis.Axis`,
+    the nominal axis that compensators are told of), ``task``
+    (:class:`~fricbench.gym.task.TaskConfig`), ``render_mode`` (``"rgb_array"`` or
     ``"human"``; see :meth:`render`: position, error, velocity and the friction law with the
     operating point; ``"human"`` draws ``metadata["render_fps"]`` (25) frames per second of
-    simulated time and warns once, drawing off-screen, where there is no display).
+    simulated time and warns once, drawing off-screen, where there is no display), ``plant``
+    (an :class:`~fricbench.axis.Axis` simulated in place of ``axis``, such as one the benchmark
+    draws per seed around the nominal: :func:`fricbench.bench.plants.draw_plant`; ``None``: the
+    nominal axis itself). With ``effects.current_noise_std > 0`` the motor force of the
+    observation carries the current-measurement noise.
 
     Registered ids are built from the TOML specs in ``envs/``, and the keywords of
     ``gymnasium.make`` (and ``make_vec``) are merged onto the env's spec, checked as a spec file
@@ -126,11 +131,17 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
 
     def __init__(self, axis: Axis | None = None, task: TaskConfig | None = None,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, plant: Axis | None = None) -> None:
         self.axis = Axis() if axis is None else axis
         self.task = TaskConfig() if task is None else task
         if not isinstance(self.axis, Axis):
             raise TypeError(f"axis={axis!r}: expected an Axis")
+        if plant is not None and not isinstance(plant, Axis):
+            raise TypeError(f"plant={plant!r}: expected an Axis or None")
+        if plant is not None and plant.controller != self.axis.controller:
+            raise ValueError("plant: its controller differs from the nominal axis's (a plant "
+                             "varies the machine, not the controller settings)")
+        self.plant = self.axis if plant is None else plant
         if not isinstance(self.task, TaskConfig):
             raise TypeError(f"task={task!r}: expected a TaskConfig")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -196,7 +207,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"trajectory sampled at ts={ref.ts:g} s; the axis runs at "
                              f"{self.ts:g} s")
         self.reference = ref
-        axis = self.task.randomize.sample(self.axis, rng)
+        axis = self.task.randomize.sample(self.plant, rng)
         for i in range(self.n_axes):
             self._batch.set_params(i, axis)
         self.current_axis = axis
@@ -212,7 +223,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         self._u_force[:] = 0.0
         self._u_off[:] = 0.0
         d = self.n_axes
-        noise0 = rng.standard_normal(d) if self.axis.needs_noise else np.zeros(d)
+        noise0 = rng.standard_normal(d) if self.plant.needs_noise else np.zeros(d)
         self._batch.reset(self._xr[:, 0], self._vr[:, 0], noise0)
         if self.render_mode is not None:
             from fricbench.gym.render import EpisodeTrace
@@ -278,7 +289,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         if not apply_action(a, self.task.action_scale, target):
             raise ValueError(f"action={np.asarray(action)!r}: contains NaN or inf")
         k = self._k
-        if self.axis.needs_noise:
+        if self.plant.needs_noise:
             self._noise[:, 0] = self.np_random.standard_normal(self.n_axes)
         b = self._batch
         sl = slice(k, k + 1)
@@ -325,6 +336,12 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
         fill_observation(self._batch.S, self._batch.P, self._xr, self._vr, self._ar, self._rows,
                          self._kvec, self._offsets, self._prev_action, self._scales,
                          self._obs_rows)
+        i_std = self.plant.effects.current_noise_std
+        if i_std > 0.0:
+            # F_meas = kt (i + n_i): the drive reports a noisy current
+            self._obs_rows[:, 6] += (self.plant.controller.kt * i_std
+                                     / self.task.observation.force_scale
+                                     * self.np_random.standard_normal(self.n_axes))
         if self.n_axes == 2:
             err = self._obs_rows[:, 0] * self.task.observation.error_scale
             ec = self._contour_error(err, self._k) / self.task.observation.error_scale

@@ -1,0 +1,107 @@
+"""Statistics of the leaderboards: medians over seeds with bootstrap intervals, paired tests.
+
+Every interval is a 95 % percentile bootstrap (:func:`scipy.stats.bootstrap`) of the median over
+seeds. Its generator is seeded from the benchmark seeds and a label of the cell
+(:func:`cell_rng`), so the same rows give the same tables, bit for bit. Seeds share plants
+(every compensator runs on the same drawn machine of a seed), so two compensators are compared
+on their per-seed *differences* (:func:`paired_difference`), not on overlapping intervals.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+__all__ = [
+    "CONFIDENCE",
+    "N_RESAMPLES",
+    "Interval",
+    "cell_rng",
+    "median_ci",
+    "paired_difference",
+]
+
+CONFIDENCE = 0.95
+N_RESAMPLES = 9999
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A median over seeds and its bootstrap interval.
+
+    ``low``/``high`` are None when there are fewer than two finite values (no interval); with
+    all values equal the interval is that value.
+    """
+
+    median: float
+    low: float | None
+    high: float | None
+    n: int
+
+    @property
+    def has_ci(self) -> bool:
+        return self.low is not None and self.high is not None
+
+    def excludes_zero(self) -> bool:
+        """Whether the interval lies wholly above or below 0 (False without an interval)."""
+        return self.has_ci and (self.low > 0.0 or self.high < 0.0)  # type: ignore[operator]
+
+    def text(self, fmt: str = ".2f", sign: bool = False) -> str:
+        """``"12.34 [11.90, 12.80]"``; ``"12.34 (n=1)"`` without an interval."""
+        f = ("+" if sign else "") + fmt
+        if not self.has_ci:
+            return f"{self.median:{f}} (n={self.n})"
+        return f"{self.median:{f}} [{self.low:{f}}, {self.high:{f}}]"
+
+
+def cell_rng(seeds: Sequence[int], *labels: str) -> np.random.Generator:
+    """The bootstrap generator of one cell: seeded from the benchmark seeds and the labels.
+
+    ``zlib.crc32`` (not ``hash``, which Python salts per process) turns the labels into
+    integers, so that the generator is the same in every run.
+    """
+    words = [int(s) for s in sorted(seeds)] + [zlib.crc32(lab.encode()) for lab in labels]
+    return np.random.default_rng(np.random.SeedSequence(words))
+
+
+def median_ci(values: Sequence[float], rng: np.random.Generator,
+              confidence: float = CONFIDENCE, n_resamples: int = N_RESAMPLES) -> Interval:
+    """Median of the finite ``values`` and its percentile bootstrap interval.
+
+    Raises
+    ------
+    ValueError
+        If no value is finite.
+    """
+    x = np.asarray([v for v in values if math.isfinite(v)], dtype=float)
+    if x.size == 0:
+        raise ValueError("values: expected at least one finite number")
+    med = float(np.median(x))
+    if x.size < 2:
+        return Interval(med, None, None, int(x.size))
+    if np.all(x == x[0]):  # degenerate: every resample has the same median
+        return Interval(med, med, med, int(x.size))
+    res = stats.bootstrap((x,), np.median, confidence_level=confidence,
+                          n_resamples=n_resamples, method="percentile", vectorized=True,
+                          rng=rng)
+    lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    return Interval(med, lo, hi, int(x.size))
+
+
+def paired_difference(a: dict[int, float], b: dict[int, float], rng: np.random.Generator,
+                      confidence: float = CONFIDENCE) -> Interval | None:
+    """Median over the seeds both have of ``a[s] - b[s]``, with its bootstrap interval.
+
+    The difference is significant when :meth:`Interval.excludes_zero`. None when no seed has
+    finite values in both.
+    """
+    common = sorted(s for s in a.keys() & b.keys()
+                    if math.isfinite(a[s]) and math.isfinite(b[s]))
+    if not common:
+        return None
+    return median_ci([a[s] - b[s] for s in common], rng, confidence)
