@@ -505,10 +505,11 @@ def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str,
     rows = sorted(merged.values(), key=_sort_key)
     _improvements(rows)
     cats: dict[str, str] = {}
-    for r in rows:  # derived columns: the category declared now; rows from before plants
+    for row in rows:  # derived columns: the category declared now; rows from before plants
         # were drawn ran the nominal axis
-        r["category"] = cats.setdefault(r["compensator"], compensator_category(r["compensator"]))
-        r["plant"] = r.get("plant") or "nominal"
+        row["category"] = cats.setdefault(row["compensator"],
+                                          compensator_category(row["compensator"]))
+        row["plant"] = row.get("plant") or "nominal"
     fail_rows = sorted(failures.values(), key=_sort_key)
     atomic_write(csv_path, _csv_text(rows, CSV_COLUMNS))
     written = [csv_path]
