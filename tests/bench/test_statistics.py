@@ -1,0 +1,117 @@
+"""Leaderboard statistics: bootstrap intervals, paired significance, rankings by category."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fricbench.bench.leaderboard import ranking, write_leaderboards
+from fricbench.bench.runner import EpisodeRecord
+from fricbench.bench.statistics import cell_rng, median_ci, paired_difference
+
+PAPER = "fricbench/PaperAxis-v0"
+
+
+def test_bootstrap_ci_is_reproducible_and_contains_the_median() -> None:
+    x = np.random.default_rng(3).normal(10.0, 2.0, 10).tolist()
+    a = median_ci(x, cell_rng(range(10), "kalman", "curve", "max_um"))
+    b = median_ci(x, cell_rng(range(10), "kalman", "curve", "max_um"))
+    assert a == b  # same seeds, same cell: the same interval, bit for bit
+    assert a.low is not None and a.high is not None
+    assert a.low <= a.median == float(np.median(x)) <= a.high
+    assert a.low < a.high
+    other = median_ci(x, cell_rng(range(10), "kalman", "s_curve", "max_um"))
+    assert other.median == a.median  # another cell draws other resamples, same median
+
+
+def test_degenerate_and_single_values_have_no_nan() -> None:
+    same = median_ci([4.0] * 5, cell_rng([0], "c"))
+    assert (same.median, same.low, same.high) == (4.0, 4.0, 4.0)
+    one = median_ci([4.0, float("nan")], cell_rng([0], "c"))
+    assert one.n == 1 and not one.has_ci and one.text() == "4.00 (n=1)"
+    with pytest.raises(ValueError, match="finite"):
+        median_ci([float("inf")], cell_rng([0], "c"))
+
+
+def _rows(cuts: dict[str, list[float]], trajs: tuple[str, ...] = ("curve",)) -> list[dict[str,
+                                                                                       str]]:
+    rows = []
+    for comp, per_seed in {"none": [0.0] * len(next(iter(cuts.values()))), **cuts}.items():
+        for t in trajs:
+            for s, v in enumerate(per_seed):
+                rows.append({"compensator": comp, "trajectory": t, "seed": str(s),
+                             "status": "ok", "improvement_max_pct": f"{v:.3f}"})
+    return rows
+
+
+def test_clear_difference_is_significant_and_a_tie_is_not() -> None:
+    rng = np.random.default_rng(0)
+    n = 10
+    plant = rng.normal(0.0, 5.0, n)  # per-seed plant effect shared by every compensator
+    clear_a = 80.0 + plant + rng.normal(0.0, 1.0, n)
+    clear_b = 40.0 + plant + rng.normal(0.0, 1.0, n)
+    tie_c = 20.0 + plant + rng.normal(0.0, 1.0, n)
+    tie_d = 20.0 + plant + rng.normal(0.0, 1.0, n)
+    rows = _rows({"a": list(clear_a), "b": list(clear_b), "c": list(tie_c), "d": list(tie_d)})
+    ranked = ranking(rows, ["none", "a", "b", "c", "d"], ["curve"], list(range(n)))
+    order = [c for c, _, _ in ranked]
+    assert order[:2] == ["a", "b"] and set(order[2:4]) == {"c", "d"} and order[4] == "none"
+    diffs = {c: d for c, _, d in ranked}
+    assert diffs["a"] is not None and diffs["a"].excludes_zero()  # a above b
+    first_of_tie = order[2]
+    assert diffs[first_of_tie] is not None and not diffs[first_of_tie].excludes_zero()
+    assert diffs["none"] is None  # the last has no next
+
+
+def test_paired_beats_overlapping_intervals() -> None:
+    """A small consistent gain on plants that spread widely: the intervals overlap, the
+    paired difference is still significant (why the ranking pairs seeds)."""
+    plant = np.linspace(0.0, 40.0, 10)
+    a = {s: 50.0 + p + 1.0 for s, p in enumerate(plant)}
+    b = {s: 50.0 + p for s, p in enumerate(plant)}
+    ia = median_ci(list(a.values()), cell_rng(range(10), "a"))
+    ib = median_ci(list(b.values()), cell_rng(range(10), "b"))
+    assert ia.low is not None and ib.high is not None and ia.low < ib.high  # overlap
+    d = paired_difference(a, b, cell_rng(range(10), "a-b"))
+    assert d is not None and d.excludes_zero() and d.median == pytest.approx(1.0)
+
+
+def _rec(comp: str, traj: str, seed: int, max_um: float) -> EpisodeRecord:
+    return EpisodeRecord(PAPER, comp, traj, seed, max_error=max_um * 1e-6,
+                         rms_error=max_um * 1e-7, reversal_peak=max_um * 1e-6, effort_rms=1.0,
+                         effort_unit="N", step_time=1e-5)
+
+
+def test_table_has_intervals_categories_rankings_and_no_nan(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    recs = []
+    for s in range(10):
+        base = 20.0 + rng.normal(0.0, 2.0)
+        for t in ("curve", "m_serial"):
+            recs += [_rec("none", t, s, base), _rec("kalman", t, s, 0.35 * base),
+                     _rec("ilc", t, s, 0.05 * base), _rec("friction-ff", t, s, 0.6 * base)]
+    write_leaderboards(recs, tmp_path / "a", "fricbench bench", "abc", {PAPER: ("d", PAPER)})
+    write_leaderboards(recs, tmp_path / "b", "fricbench bench", "abc", {PAPER: ("d", PAPER)})
+    md = (tmp_path / "a" / "PaperAxis-v0.md").read_text()
+    assert md == (tmp_path / "b" / "PaperAxis-v0.md").read_text()  # reproducible bit for bit
+    for needle in ("95% bootstrap", "| `kalman` | online |", "| `ilc` | trials |",
+                   "| `friction-ff` | model |", "### Overall", "### Within `trials`",
+                   "### Within `model`", "### Within `online`",
+                   "Ranking: overall and within each category"):
+        assert needle.lower() in md.lower(), needle
+    assert "nan" not in md.lower() and "inf" not in md.replace("info", "").lower()
+    csv_text = (tmp_path / "a" / "PaperAxis-v0.csv").read_text()
+    assert csv_text.count("\n") == 1 + len(recs)  # the raw per-seed rows stay
+    assert ",online,seed\n" in csv_text and ",trials,seed\n" in csv_text
+    assert not any(math.isnan(float(x)) for x in csv_text.split(",") if _is_float(x))
+
+
+def _is_float(x: str) -> bool:
+    try:
+        float(x)
+    except ValueError:
+        return False
+    return True
