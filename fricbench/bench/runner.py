@@ -143,9 +143,16 @@ def bench_env(env_id: str, compensator: Compensator, seed: int | None = None,
 
 
 def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = False,
-                reference: Reference | None = None, nominal: bool = False) -> EpisodeRecord:
+                reference: Reference | None = None, nominal: bool = False,
+                fast: bool = True) -> EpisodeRecord:
     """Score ``compensator`` on one episode (on the plant of ``task.seed``, or on the nominal
-    axis with ``nominal``); any exception becomes a failed record."""
+    axis with ``nominal``); any exception becomes a failed record.
+
+    With ``fast``, a compensator whose actions do not depend on the observation
+    (:meth:`~fricbench.compensators.Compensator.planned_actions`) runs in one kernel call
+    (:meth:`~fricbench.gym.ServoAxisEnv.run_actions`, the same numbers as the step loop);
+    ``fast=False`` steps the env one sample at a time for every compensator.
+    """
     rec = EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed,
                         plant="nominal" if nominal else "seed")
     try:
@@ -162,7 +169,14 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
         effort = np.zeros((d, k_total))
         err[:, 0] = np.atleast_2d(ref.x)[:, 0] - env.true_position
         t_act = 0.0
-        for k in range(k_total - 1):
+        t0 = time.perf_counter()
+        plan = compensator.planned_actions(k_total - 1) if fast else None
+        if plan is not None:
+            # open loop: the whole episode in one kernel call, the same numbers as the loop
+            t_act = time.perf_counter() - t0
+            err[:, 1:] = env.run_actions(plan)
+            effort[:, :-1] = np.asarray(plan, dtype=float) * env.task.action_scale
+        for k in range(k_total - 1 if plan is None else 0):
             t0 = time.perf_counter()
             action = compensator.act(obs)
             t_act += time.perf_counter() - t0

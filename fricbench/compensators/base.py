@@ -177,6 +177,32 @@ class Compensator(abc.ABC):
             raise CompensatorError(f"{self.id}: produced a non-finite action {action!r}")
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
+    def planned_actions(self, n_steps: int) -> np.ndarray | None:
+        """The episode's next ``n_steps`` actions, shape (D, n_steps), when they do not depend
+        on the observation (feedforward from the reference); ``None`` otherwise.
+
+        Exactly what ``n_steps`` calls of :meth:`act` would return (float32 in [-1, 1]), and it
+        advances the episode as they would. The runner then simulates the episode in one kernel
+        call (:meth:`fricbench.gym.ServoAxisEnv.run_actions`). Subclasses write
+        ``_planned``.
+        """
+        if self._context is None:
+            raise RuntimeError(f"{self.id}: call reset() before planned_actions()")
+        plan = self._planned(int(n_steps))
+        if plan is None:
+            return None
+        d = self._context.n_axes
+        a = np.asarray(plan, dtype=np.float64).reshape(d, int(n_steps))
+        if not np.all(np.isfinite(a)):
+            raise CompensatorError(f"{self.id}: produced a non-finite action")
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+    def _planned(self, n_steps: int) -> np.ndarray | None:
+        """Open-loop compensators return their next ``n_steps`` actions (see
+        :meth:`planned_actions`); the default, ``None``, means the action needs the
+        observation."""
+        return None
+
     def end_episode(self) -> None:  # noqa: B027 - optional hook
         """Called after the scored episode (optional hook)."""
 

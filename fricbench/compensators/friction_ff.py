@@ -298,3 +298,8 @@ class FrictionFeedforward(Compensator):
         k = min(self._k, self._u.shape[1] - 1)
         self._k += 1
         return self._u[:, k]
+
+    def _planned(self, n_steps: int) -> np.ndarray:
+        idx = np.minimum(self._k + np.arange(n_steps), self._u.shape[1] - 1)
+        self._k += n_steps
+        return self._u[:, idx]

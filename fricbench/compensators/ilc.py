@@ -203,6 +203,11 @@ class IterativeLearningControl(Compensator):
         self._k += 1
         return self._u[:, k] / self._scale
 
+    def _planned(self, n_steps: int) -> np.ndarray:
+        idx = np.minimum(self._k + np.arange(n_steps), self._u.shape[1] - 1)
+        self._k += n_steps
+        return self._u[:, idx] / self._scale
+
 
 class ForceILC(IterativeLearningControl):
     """The same ILC learning a force at the velocity-loop output (parallel architecture), N.

@@ -20,3 +20,6 @@ class NoCompensation(Compensator):
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
         return np.zeros(self.context.n_axes)
+
+    def _planned(self, n_steps: int) -> np.ndarray:
+        return np.zeros((self.context.n_axes, n_steps))

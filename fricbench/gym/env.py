@@ -320,6 +320,60 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
                 self._human_frame(final=truncated)
         return obs, r_err + r_act, False, truncated, info
 
+    def run_actions(self, actions: np.ndarray) -> np.ndarray:
+        """Step the episode with a precomputed action sequence in one kernel call.
+
+        The same numbers as ``step`` called with each column in turn (the env's generator
+        draws the same noise in the same order), without building observations, rewards or
+        render frames: for compensators whose actions do not depend on the observation.
+
+        Parameters
+        ----------
+        actions : ndarray, shape (D, n)
+            Actions in [-1, 1] (clipped as ``step`` does), one column per step.
+
+        Returns
+        -------
+        ndarray, shape (D, n)
+            True tracking error after each step, m (``info["error_m"]`` of ``step``).
+        """
+        ref = self.reference
+        if ref is None:
+            raise RuntimeError("call reset() before run_actions()")
+        a = np.asarray(actions, dtype=np.float64)
+        d, k = self.n_axes, self._k
+        if a.ndim != 2 or a.shape[0] != d:
+            raise ValueError(f"actions has shape {a.shape}: expected ({d}, n)")
+        n = a.shape[1]
+        if n < 1 or k + n > ref.n_samples - 1:
+            raise ValueError(f"actions: {n} steps from sample {k}; the episode has "
+                             f"{ref.n_samples - 1 - k} left")
+        if not np.isfinite(a).all():
+            raise ValueError("actions: contains NaN or inf")
+        a = np.clip(a, -1.0, 1.0)
+        u = a * self.task.action_scale
+        zeros = np.zeros((d, n))
+        rng = self.np_random
+        i_std = self.plant.effects.current_noise_std
+        # step draws the encoder noise before the kernel, the current noise after it
+        if self.plant.needs_noise and i_std > 0.0:
+            noise = np.ascontiguousarray(rng.standard_normal((n, 2, d))[:, 0, :].T)
+        elif self.plant.needs_noise:
+            noise = np.ascontiguousarray(rng.standard_normal((n, d)).T)
+        else:
+            noise = zeros
+            if i_std > 0.0:
+                rng.standard_normal((n, d))
+        sl = slice(k, k + n)
+        force = self.task.action == "force"
+        x_true = self._batch.run(self._xr[:, sl], self._vr[:, sl], self._ar[:, sl],
+                                 u if force else zeros, zeros if force else u, noise)[0]
+        self._k = k + n
+        self._prev_action[:] = a[:, -1]
+        # out[0] holds the position at the start of each sample: shift by one
+        after = np.concatenate([x_true[:, 1:], self._batch.true_position[:, None]], axis=1)
+        return self._xr[:, k + 1:k + n + 1] - after
+
     # -- observation --------------------------------------------------------------------------
     def _contour_error(self, err: np.ndarray, k: int) -> float:
         """Error component normal to the reference path (ISO 230-4 radial deviation on a

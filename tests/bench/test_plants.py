@@ -115,3 +115,35 @@ def test_current_noise_reaches_the_reported_force_only() -> None:
         obs.append(env.step(np.zeros(1, np.float32))[0])
     diff = obs[1] - obs[0]
     assert diff[6] != 0.0 and np.all(diff[np.arange(diff.size) != 6] == 0.0)
+
+
+@pytest.mark.parametrize("nominal", [True, False])
+@pytest.mark.parametrize("env_id,traj", [(PAPER, "s_curve"),
+                                         ("fricbench/CircleContouring-v0", "circle")])
+def test_open_loop_fast_path_equals_the_step_loop(env_id: str, traj: str,
+                                                  nominal: bool) -> None:
+    """One kernel call for feedforward compensators: the numbers of the step loop, bit for bit
+    (noise drawn in the same order on a drawn plant)."""
+    kw: dict[str, dict[str, Any]] = {
+        "friction-ff": {"n_runs": 1, "run_duration": 8.0, "v_eps_grid": (1e-4,),
+                        "advance_grid": (1,)},
+        "ilc": {"iterations": 2}}
+    for cid in ("none", "friction-ff", "ilc"):
+        comp = make_compensator(cid, **kw.get(cid, {})).fit(env_id, seed=1000)
+        task = BenchTask(env_id, cid, traj, 3)
+        fast = run_episode(comp, task, nominal=nominal, fast=True, keep_trace=True)
+        loop = run_episode(comp, task, nominal=nominal, fast=False, keep_trace=True)
+        assert fast.status == loop.status == "ok", (fast.reason, loop.reason)
+        for name in ("max_error", "rms_error", "effort_rms"):
+            assert getattr(fast, name) == getattr(loop, name), (cid, name)
+        assert fast.trace_error is not None and loop.trace_error is not None
+        np.testing.assert_array_equal(fast.trace_error, loop.trace_error)
+    kalman = make_compensator("kalman").fit(env_id)
+    kalman.reset(_context(env_id, traj))
+    assert kalman.planned_actions(10) is None  # needs the observation: stepped
+
+
+def _context(env_id: str, traj: str) -> Any:
+    env = ServoAxisEnv(axis=get_spec(env_id).axis, task=get_spec(env_id).task)
+    env.reset(seed=0, options={"trajectory": traj})
+    return env.episode_context()
