@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["REVERSAL_WINDOW_S", "RunMetrics", "reversal_indices", "score_run"]
+__all__ = ["REVERSAL_WINDOW_S", "RunMetrics", "contour_error", "reversal_indices", "score_run"]
 
 REVERSAL_WINDOW_S = 0.05  # s: the window after a reversal in which its peak error is taken
 
@@ -46,6 +46,19 @@ def _peak_after(err: np.ndarray, marks: np.ndarray, window: int) -> float:
     return float(np.max(peaks))
 
 
+def contour_error(err: np.ndarray, v_ref: np.ndarray) -> np.ndarray:
+    """Contour error of a two-axis run: the tracking error normal to the path, m.
+
+    ``err`` and ``v_ref`` have shape (2, K). Where the reference stands still the whole error
+    magnitude is taken (no path direction).
+    """
+    speed = np.hypot(v_ref[0], v_ref[1])
+    safe = np.where(speed > 1e-9, speed, 1.0)
+    # e_c = e x t: error component normal to the path
+    return np.where(speed > 1e-9, (err[0] * v_ref[1] - err[1] * v_ref[0]) / safe,
+                    np.hypot(err[0], err[1]))
+
+
 def score_run(t: np.ndarray, x_ref: np.ndarray, x_true: np.ndarray, v_ref: np.ndarray,
               effort: np.ndarray) -> RunMetrics:
     """Score a run; arrays are (K,) for one axis or (D, K) for contouring.
@@ -66,10 +79,7 @@ def score_run(t: np.ndarray, x_ref: np.ndarray, x_true: np.ndarray, v_ref: np.nd
                           _peak_after(err, marks, window), effort_rms)
     err = x_ref - x_true
     speed = np.hypot(v_ref[0], v_ref[1])
-    safe = np.where(speed > 1e-9, speed, 1.0)
-    # e_c = e x t: error component normal to the path
-    contour = np.where(speed > 1e-9, (err[0] * v_ref[1] - err[1] * v_ref[0]) / safe,
-                       np.hypot(err[0], err[1]))
+    contour = contour_error(err, v_ref)
     centre = 0.5 * (x_ref.max(axis=1) + x_ref.min(axis=1))
     r_ref = np.hypot(x_ref[0] - centre[0], x_ref[1] - centre[1])
     r_act = np.hypot(x_true[0] - centre[0], x_true[1] - centre[1])

@@ -394,3 +394,18 @@ def test_compensator_config_file(tmp_path: Path) -> None:
     path.write_text('[ilc]\ngain = 0.3\nkeep = "last"\n["precomp:tf"]\nadvance = 2\n')
     assert read_compensator_config(path) == {"ilc": {"gain": 0.3, "keep": "last"},
                                              "precomp:tf": {"advance": 2}}
+
+
+def test_a_circle_trace_is_the_scored_contour_error() -> None:
+    """Issue 16 item 12: the leaderboard plot draws the quantity its legend's maximum is of."""
+    from fricbench.bench.runner import BenchTask, run_episode
+    from fricbench.compensators import make_compensator
+
+    rec = run_episode(make_compensator("none"),
+                      BenchTask("fricbench/CircleContouring-v0", "none", "circle", 0),
+                      keep_trace=True, nominal=True)
+    assert rec.status == "ok", rec.reason
+    assert rec.trace_error is not None and rec.trace_error.ndim == 1
+    peak = float(np.max(np.abs(rec.trace_error)))
+    # subsampled: at most the full-rate maximum, and close to it
+    assert 0.9 * rec.max_error <= peak <= rec.max_error * (1 + 1e-12)
