@@ -731,10 +731,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # and a periodic force, whose screen is no better (its linearised response to a
         # ripple misses how the ripple moves the stops of a stick-slip motion)
         chosen += [kv for kv in ranked[n_confirm:]
-                   if kv[0] == "coulomb_friction" or get_effect(kv[0]).always_fitted
-                   or kv[0] in runners_up]
+                   if get_effect(kv[0]).always_fitted or kv[0] in runners_up]
         for name, (ratio, _, _) in chosen:
-            if (ratio >= 1.0 and len(steps) > 1 and name != "coulomb_friction"
+            if (ratio >= 1.0 and len(steps) > 1
                     and name not in runners_up and not get_effect(name).always_fitted):
                 continue
             heldout = 0.0

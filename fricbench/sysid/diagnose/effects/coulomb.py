@@ -18,6 +18,9 @@ class CoulombFriction(Effect):
     name = "coulomb_friction"
     kind = "force"
     friction = True
+    # the first suspect of any servo axis, and its linearised screen is the least reliable
+    # (stiction is far from linear): fitted for real at every step while it is missing
+    always_fitted = True
     needs_reversals = True
     summary = "a friction force of constant level opposing the motion"
     parameters = (CL.I_FC,)
