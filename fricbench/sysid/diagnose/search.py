@@ -187,6 +187,17 @@ def _unit(prep: Prepared) -> str:
     return prep.run.units.get("position", "m")
 
 
+def _length(prep: Prepared, value: float) -> str:
+    """A position figure (SI) in the unit the log was in (deg stays deg, mm stays mm)."""
+    from fricbench.sysid.units import position_unit
+
+    try:
+        unit = position_unit(prep.run.units.get("position_logged", _unit(prep)))
+    except ValueError:
+        return f"{value:.4g} {_unit(prep)}"
+    return f"{value * unit.per_si:.4g} {unit.display}"
+
+
 def _n_params(effect: str, effects: tuple[str, ...]) -> int:
     return len(get_effect(effect).free(effects))
 
@@ -893,8 +904,8 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                 ratio = next((st.heldout_ratio for st in steps if st.effect == name), None)
                 cut = f" ({100 * (1 - ratio):.1f} % held-out effort error cut)" if ratio else ""
                 warnings.append(f"rejected {name}: it is significant on the effort{cut} but "
-                                f"makes the free-run position worse ({without:.4g} -> "
-                                f"{with_:.4g} {_unit(prep)} rms)")
+                                f"makes the free-run position worse ({_length(prep, without)} "
+                                f"-> {_length(prep, with_)} rms)")
             dropped = {name for name, _, _ in pruned}
             settings = dataclasses.replace(settings, candidates=tuple(
                 c for c in settings.candidates if c not in dropped))
