@@ -256,6 +256,11 @@ class DiagnosisError(ValueError):
     """No valid model of the run exists (every candidate loop diverges, say)."""
 
 
+def _runs_away(prep: Prepared, y: np.ndarray) -> bool:
+    """Whether a free run left the data: its rms error exceeds ``UNSTABLE_FACTOR`` strokes."""
+    return _rms(prep.x - y) > UNSTABLE_FACTOR * max(prep.stroke, prep.noise.rms)
+
+
 def _law_unusable(relerr: float, prep: Prepared, y_lin: np.ndarray) -> str | None:
     """Why the control law identified from the effort cannot drive the simulations, or None."""
     if relerr > LAW_MAX_RELERR_PCT:
@@ -266,7 +271,7 @@ def _law_unusable(relerr: float, prep: Prepared, y_lin: np.ndarray) -> str | Non
     if not np.all(np.isfinite(e)):
         return ("the control law identified from the effort closes an unstable loop with "
                 "the linear plant (its free run diverges)")
-    if _rms(e) > UNSTABLE_FACTOR * max(prep.stroke, prep.noise.rms):
+    if _runs_away(prep, y_lin):
         return ("the control law identified from the effort, with the linear plant, runs "
                 "away from the data (free-run error larger than the stroke)")
     return None
@@ -432,8 +437,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
             linear, y_lin, bounds, jac = fit_linear_cascade(prep)
         except ValueError as exc:
             raise DiagnosisError(f"no valid linear model of this run: {exc}") from exc
-        if not (np.all(np.isfinite(y_lin))
-                and _rms(prep.x - y_lin) <= UNSTABLE_FACTOR * max(prep.stroke, prep.noise.rms)):
+        if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
             raise DiagnosisError("no valid linear model of this run: every linear loop fitted "
                                  "to the position diverges or misses it by more than the "
                                  "stroke")
