@@ -26,7 +26,8 @@ from fricbench.sysid.diagnose.models import (
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 
-__all__ = ["LinearTF", "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort",
+__all__ = ["LinearTF", "fit_law", "law_relerr_floor", "LAW_PREFILTERS", "fit_linear_tf",
+           "fit_linear_cascade", "fit_linear_with_effort",
            "force_scale", "starting_controllers", "friction_aware_loop"]
 
 
@@ -131,8 +132,28 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     return best.model, best.y, bounds, best.jac_rows
 
 
-def fit_law(prep: Prepared) -> ArxController:
+LAW_PREFILTERS = (None, 1 / 4, 1 / 8, 1 / 16, 1 / 32)
+"""Prefilters the control law is fitted through, as fractions of the Nyquist frequency
+(None: unfiltered); see :func:`fit_law`."""
+
+
+def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxController:
     """The run's control law from its logged effort (clipped samples left out).
+
+    One least-squares law per prefilter of :data:`LAW_PREFILTERS`
+    (:func:`~fricbench.sysid.diagnose.controllers.fit_arx_controller`). The one kept is the
+    law whose loop, closed around the run's own inverse-dynamics plant (mass, damping and a
+    Coulomb force fitted to the effort, never to the position), reproduces the measured
+    position best: the next-effort error cannot choose, because the noise of a logged
+    position that is not the controller's own feedback biases exactly the laws that predict
+    the next effort best. The choice is among a handful of fits, not a fit of the law to the
+    position, so no effect can be absorbed into it.
+
+    Parameters
+    ----------
+    prep : Prepared
+    idim : InverseDynamics, optional
+        The run's effort regression (built when not given).
 
     Raises
     ------
@@ -143,8 +164,38 @@ def fit_law(prep: Prepared) -> ArxController:
         raise ValueError("fit_law: the run has no effort column")
     inp = prep.inputs
     exclude = prep.saturation.mask if prep.saturation is not None else None
+    nyquist = 0.5 / prep.ts
+    laws = []
+    for frac in LAW_PREFILTERS:
+        try:
+            laws.append(fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
+                                           exclude=exclude,
+                                           prefilter_hz=None if frac is None else frac * nyquist))
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+    if len(laws) == 1:
+        return laws[0]
+    idim = idim if idim is not None else InverseDynamics(prep, prep.u)
+    p = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    if prep.saturation is not None:
+        p[CL.I_IMAX] = prep.saturation.level
+    models = [GreyBox(law, p, effects=("coulomb_friction",)) for law in laws]
+    ys, _, status = simulate_models(models, prep)
+    sse = np.array([float(np.sum((prep.x - y) ** 2)) if s == 0 and np.all(np.isfinite(y))
+                    else np.inf for y, s in zip(ys, status, strict=True)])
+    if not np.any(np.isfinite(sse)):
+        return laws[0]
+    return laws[int(np.argmin(sse))]
+
+
+def law_relerr_floor(prep: Prepared) -> float:
+    """Smallest next-effort error (%) a linear law reaches on the run (unfiltered fit)."""
+    if prep.u is None:
+        raise ValueError("law_relerr_floor: the run has no effort column")
+    inp = prep.inputs
+    exclude = prep.saturation.mask if prep.saturation is not None else None
     return fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
-                              exclude=exclude)
+                              exclude=exclude).relerr_pct
 
 
 def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bounds, float]:
@@ -157,13 +208,14 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     idim : InverseDynamics
         The effort regression of the run.
     bounds : Bounds
-    w_share : float
-        Share (%) of the effort that the controller law does not explain (rms ratio).
+    law_relerr : float
+        Next-effort error (%) of the law, or of the unfiltered least-squares law when that
+        is smaller: how far the effort is from any linear law of the logged signals.
     """
     if prep.u is None:
         raise ValueError("fit_linear_with_effort: the run has no effort column")
-    ctrl = fit_law(prep)
     idim = InverseDynamics(prep, prep.u)
+    ctrl = fit_law(prep, idim)
     p = idim.fit((), CL.default_plant(1.0, 0.0))
     if prep.saturation is not None:
         p[CL.I_IMAX] = prep.saturation.level
@@ -171,7 +223,7 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     bounds = Bounds(force=force_scale(prep.u, prep.ts), stroke=max(prep.stroke, 1e-9),
                     v_max=max(prep.v_max, 1e-9), duration=prep.duration, ts=prep.ts,
                     noise=prep.noise.rms)
-    return model, idim, bounds, ctrl.relerr_pct
+    return model, idim, bounds, min(ctrl.relerr_pct, law_relerr_floor(prep))
 
 
 def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15

@@ -16,9 +16,11 @@ Both turn into the generic difference equation of :mod:`fricbench.sysid.diagnose
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.signal import butter, lfilter
 
 from fricbench.sysid.diagnose.leastsq import matvec, solve_ls, sumsq
 
@@ -128,7 +130,10 @@ class ArxController:
     lead : int
         Look-ahead of the reference, samples.
     relerr_pct : float
-        Fit error of the law on its data, ``100 ||u - u_hat|| / ||u||``.
+        Fit error of the law on its data, ``100 ||u - u_hat|| / ||u||`` (one-step prediction
+        from the logged signals, unfiltered).
+    prefilter_hz : float or None
+        Cut-off of the low-pass prefilter the law was fitted through (None: none).
     """
 
     a: np.ndarray
@@ -136,6 +141,7 @@ class ArxController:
     c: np.ndarray
     lead: int
     relerr_pct: float = field(default=0.0)
+    prefilter_hz: float | None = None
 
     def reference_part(self, xr: np.ndarray, vr: np.ndarray, ts: float) -> np.ndarray:
         """``sum_j b_j x_r[k-j]`` with the reference extended at constant velocity."""
@@ -173,9 +179,13 @@ class ArxController:
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready coefficients."""
-        return {"a": self.a.tolist(), "b_reference": self.b.tolist(),
-                "c_position": self.c.tolist(), "reference_lead_samples": self.lead,
-                "relerr_pct": self.relerr_pct}
+        out: dict[str, object] = {"a": self.a.tolist(), "b_reference": self.b.tolist(),
+                                  "c_position": self.c.tolist(),
+                                  "reference_lead_samples": self.lead,
+                                  "relerr_pct": self.relerr_pct}
+        if self.prefilter_hz is not None:
+            out["prefilter_hz"] = self.prefilter_hz
+        return out
 
 
 def _design(xr: np.ndarray, x: np.ndarray, u: np.ndarray, na: int, nc: int, lead: int,
@@ -198,16 +208,29 @@ def _design(xr: np.ndarray, x: np.ndarray, u: np.ndarray, na: int, nc: int, lead
     return np.column_stack(cols), u[rows], rows
 
 
+def _lowpass(sig: np.ndarray, ba: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``sig`` through the filter ``ba``, started at rest at its first value."""
+    return np.asarray(lfilter(ba[0], ba[1], sig - sig[0])) + sig[0]
+
+
 def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndarray,
                        ts: float, folds: np.ndarray, *, lead: int = 2, lag: int = 3,
-                       nc: int = 4, exclude: np.ndarray | None = None) -> ArxController:
+                       nc: int = 4, exclude: np.ndarray | None = None,
+                       prefilter_hz: float | None = None, max_na: int = 2) -> ArxController:
     """Identify the control law from reference, measured position and effort.
 
-    Least squares on the equation error (the effort is computed by the controller from the
-    measured position, so the equation error is the controller's own and the estimate is
-    unbiased). The recursion order (0: a static law such as PD, 1: an integrator or a
-    filtered derivative) is chosen by the error on held-out folds, preferring the simpler law
-    unless the richer one is clearly better.
+    Least squares on the equation error. When the logged position is the very signal the
+    controller read, the equation error is the controller's own and the estimate is unbiased.
+    When it is not (a semi-closed loop: the drive reads the motor encoder, the log holds the
+    table's scale; or a log with its own noise), the logged position's noise sits in the
+    regressors and biases the high-gain derivative taps (errors in variables): the law then
+    predicts the next effort well and the loop badly. A low-pass ``prefilter_hz`` applied
+    alike to every signal keeps the law's equation exact (a linear law commutes with a
+    linear filter) while it removes most of that noise, the standard prefiltering of
+    closed-loop identification (Ljung, *System Identification*, 2nd ed., sec. 14.4).
+    The recursion order (0: a static law such as PD, 1: an integrator or a filtered
+    derivative, 2: both) is chosen by the error on held-out folds, preferring the simpler
+    law unless the richer one is clearly better.
 
     Parameters
     ----------
@@ -224,6 +247,12 @@ def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndar
     exclude : ndarray of bool, shape (K,), optional
         Samples whose effort is not the law's output (a clipped command): equations that
         hold one of them, as output or as recursion, are left out.
+    prefilter_hz : float, optional
+        Cut-off of a second-order Butterworth low-pass applied to every signal before the
+        fit (None: none). Its start-up and the samples it smears a clipped command over are
+        left out.
+    max_na : int
+        Highest recursion order tried.
 
     Returns
     -------
@@ -241,8 +270,23 @@ def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndar
             return mat, rhs, rows  # hardly anything left: the clipped rows are kept
         return mat[~bad], rhs[~bad], k[~bad]
 
+    xr_raw, x_raw, u_raw = xr, x, u
+    skip = 0
+    if prefilter_hz is not None:
+        if not 0.0 < prefilter_hz < 0.5 / ts:
+            raise ValueError(f"prefilter_hz={prefilter_hz!r}: expected a cut-off between 0 and "
+                             f"the Nyquist frequency {0.5 / ts:g} Hz")
+        ba = butter(2, prefilter_hz, fs=1.0 / ts)
+        xr, x, u = _lowpass(xr, ba), _lowpass(x, ba), _lowpass(u, ba)
+        # the filter's memory: ~4 time constants of its poles
+        skip = int(math.ceil(4.0 / (2.0 * math.pi * prefilter_hz * ts)))
+        if exclude is not None and np.any(exclude):
+            exclude = np.convolve(exclude.astype(float), np.ones(skip + 1))[: exclude.shape[0]] > 0
+        start = np.zeros(xr.shape[0], dtype=bool)
+        start[:skip] = True
+        exclude = start if exclude is None else (exclude | start)
     best: tuple[float, int] | None = None
-    for na in (0, 1):
+    for na in range(max_na + 1):
         mat, rhs, rows = usable(na, *_design(xr, x, u, na, nc, lead, lag))
         f = folds[rows]
         sse = 0.0
@@ -250,7 +294,9 @@ def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndar
             tr, te = f != k, f == k
             coef = solve_ls(mat[tr], rhs[tr])
             sse += sumsq(rhs[te] - matvec(mat[te], coef))
-        if best is None or sse < 0.8 * best[0]:
+        # a richer law must be clearly better, and cannot be when the simpler one is exact
+        # (within 0.01 % rms)
+        if best is None or (sse < 0.8 * best[0] and best[0] > 1e-8 * sumsq(rhs)):
             best = (sse, na)
     na = best[1] if best is not None else 0
     mat, rhs, rows = usable(na, *_design(xr, x, u, na, nc, lead, lag))
@@ -259,5 +305,15 @@ def fit_arx_controller(xr: np.ndarray, vr: np.ndarray, x: np.ndarray, u: np.ndar
     b = coef[na:na + lead + lag + 1]
     c_rest = coef[na + lead + lag + 1:]
     c = np.concatenate([[-(np.sum(b) + np.sum(c_rest))], c_rest])
-    rel = float(100.0 * np.sqrt(sumsq(rhs - matvec(mat, coef)) / max(sumsq(rhs), 1e-300)))
-    return ArxController(a=a, b=b, c=c, lead=lead, relerr_pct=rel)
+    law = ArxController(a=a, b=b, c=c, lead=lead, prefilter_hz=prefilter_hz)
+    # the error that counts is the law's on the logged (unfiltered) signals
+    err = u_raw - law.predict(xr_raw, vr, x_raw, u_raw, ts)
+    keep = np.ones(err.shape[0], dtype=bool)
+    keep[: max(skip, lag + nc)] = False
+    keep[err.shape[0] - lead:] = False
+    if exclude is not None:
+        keep &= ~exclude
+    if np.count_nonzero(keep) < 50:
+        keep[:] = True
+    rel = float(100.0 * np.sqrt(sumsq(err[keep]) / max(sumsq(u_raw[keep]), 1e-300)))
+    return replace(law, relerr_pct=rel)
