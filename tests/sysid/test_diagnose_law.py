@@ -1,0 +1,86 @@
+"""The control law identified from a logged effort closes the loop the drive closed.
+
+A semi-closed loop logs a position that is not the one the drive read (the table's scale, with
+its own noise, against the motor encoder): a least-squares law then predicts the next effort
+well and the loop badly (its derivative taps are biased by the log's noise). These tests run
+the second simulator (``second_sim``, independent of fricbench) with its parameters drawn per
+seed, identify the law the way ``diagnose`` does (:func:`fit_law`), close it around the
+simulator's *true* plant, and compare the free run with the logged position.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.baselines import LAW_PREFILTERS, fit_law
+from fricbench.sysid.diagnose.controllers import fit_arx_controller
+from fricbench.sysid.diagnose.models import GreyBox, simulate_position
+from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.io import load_run
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import second_sim as S  # noqa: E402
+
+# a plain layout (metres, a 1 kHz log with a time column, the effort in A): what is tested is
+# the law, not the reading of odd files (the sweep covers those)
+PLAIN = dict(effort="A", saturate=False, delay=0, log_every=1, unit="m", rounded=False,
+             time_column=True, sep=",", header="names")
+
+
+def _case(law: str, seed: int, tmp_path) -> tuple[S.Case, object]:
+    case = S.draw_case("control", seed, law=law, vel_filter=(law == "cascade"), **PLAIN)
+    path = os.path.join(tmp_path, f"{law}-{seed}.csv")
+    S.write_csv(case, path)
+    args = S.cli_args(case, path)
+    opts = dict(zip(args[1::2], args[2::2], strict=False))
+    run = load_run(path, time=opts["--time"], reference=opts["--reference"],
+                   position=opts["--position"], effort=opts["--effort"], position_unit="m",
+                   effort_required=True)
+    return case, prepare(run)
+
+
+def _true_plant(case: S.Case) -> np.ndarray:
+    """The simulator's plant in the diagnosis's units (forces in the effort's unit, A)."""
+    kt, pl = case.ctrl.kt, case.plant
+    p = CL.default_plant(pl.mass / kt, pl.damping / kt)
+    p[CL.I_FC] = pl.coulomb / kt
+    return p
+
+
+@pytest.mark.parametrize("law,seed", [("pid", 101), ("pid", 102), ("cascade", 103),
+                                      ("cascade", 104)])
+def test_the_identified_law_closes_the_drives_loop(law: str, seed: int, tmp_path) -> None:
+    case, prep = _case(law, seed, tmp_path)
+    model = GreyBox(fit_law(prep), _true_plant(case), effects=("coulomb_friction",))
+    y, _ = simulate_position(model, prep)
+    err = float(np.sqrt(np.mean((prep.x - y) ** 2)))
+    assert np.all(np.isfinite(y))
+    # the simulator's own noise-free twin differs from the log by case.floor; a law that is
+    # the drive's leaves little more
+    assert err < 5.0 * case.floor, (err, case.floor)
+
+
+def test_the_law_is_chosen_among_prefilters_and_reports_its_own_error(tmp_path) -> None:
+    _, prep = _case("pid", 105, tmp_path)
+    law = fit_law(prep)
+    assert law.prefilter_hz is None or any(
+        f is not None and law.prefilter_hz == pytest.approx(f * 0.5 / prep.ts)
+        for f in LAW_PREFILTERS)
+    # the error reported is the law's next-effort error on the logged signals, unfiltered
+    inp = prep.inputs
+    e = prep.u - law.predict(inp.xr, inp.vr, prep.x, prep.u, prep.ts)
+    rel = 100 * np.sqrt(np.mean(e[10:-10] ** 2) / np.mean(prep.u[10:-10] ** 2))
+    assert law.relerr_pct == pytest.approx(rel, rel=0.05)
+    assert "prefilter_hz" in law.to_dict() or law.prefilter_hz is None
+
+
+def test_a_prefilter_out_of_range_is_refused() -> None:
+    x = np.linspace(0.0, 1.0, 200)
+    with pytest.raises(ValueError, match="prefilter_hz=600"):
+        fit_arx_controller(x, np.ones(200), x, x, 1e-3, np.arange(200) % 2, prefilter_hz=600.0)
