@@ -226,3 +226,26 @@ def test_quantum_of_a_rounded_export_and_a_floor_never_zero():
     assert floor.rms > 0.0 and np.isfinite(floor.rms)
     with pytest.raises(ValueError, match="quantum"):
         noise_floor(x, x, quantum=0.0)
+
+
+def test_backward_elimination_drops_an_effect_the_others_made_unnecessary():
+    """Forward selection may keep an effect that a later one made redundant: with the true
+    Stribeck friction in the model, a position-dependent friction level adds nothing on
+    held-out data and is named redundant; Stribeck friction itself is not."""
+    from fricbench.sysid.diagnose.models import Bounds
+    from fricbench.sysid.diagnose.search import SearchSettings, _redundant_effect
+
+    ref = _reference(duration=8.0)
+    axis = Axis().with_effects(noise_std=5e-8)
+    res = simulate(axis, ref, seed=3)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x), n_sub=axis.controller.n_substeps)
+    true = _grey_box_of(axis)
+    true = true.copy(effects=("coulomb_friction", "stribeck_friction"))
+    b = Bounds(force=5.0 * float(true.plant[CL.I_FC]) + 10.0, stroke=prep.stroke,
+               v_max=prep.v_max, duration=prep.duration, ts=1e-3, noise=prep.noise.rms)
+    settings = SearchSettings()
+    assert _redundant_effect(true, prep, b, settings, lambda _s: None) is None
+    spurious = true.copy(effects=true.effects + ("position_dependent_friction",))
+    spurious.plant[CL.I_PDG] = 0.5
+    found = _redundant_effect(spurious, prep, b, settings, lambda _s: None)
+    assert found is not None and found[0] == "position_dependent_friction"

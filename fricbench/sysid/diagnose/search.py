@@ -814,6 +814,47 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
     return steps, reason, floor
 
 
+def _heldout_position_sse(model: GreyBox, prep: Prepared, b: Bounds, budget_iter: int
+                          ) -> float:
+    """Held-out position error of ``model``: fitted on each fold, scored on the other."""
+    total = 0.0
+    for k in (0, 1):
+        train = prep.folds != k
+        res = PositionFit(prep, _eval_params(model, b), train).run(model, max_iter=budget_iter)
+        total += _position_sse(res.y, prep, ~train)
+    return total
+
+
+def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: SearchSettings,
+                      log: Callable[[str], None], budget_iter: int = 5
+                      ) -> tuple[str, float] | None:
+    """An effect of ``model`` that the others have made unnecessary, or None.
+
+    Forward selection adds an effect when it helps the model of that step; a later effect
+    may explain the same residual better (position-dependent friction stands in for the
+    Stribeck hump until the hump is in). Each effect no other one requires is taken out
+    and the model refitted on each fold: when the held-out error rises by less than the gain
+    the effect would need to be added (:meth:`SearchSettings.required`), it is redundant.
+    Returns the least useful such effect and its ``-ln`` held-out gain.
+    """
+    effects = model.effects
+    if len(effects) < 2:
+        return None
+    with_sse = _heldout_position_sse(model, prep, b, budget_iter)
+    worst: tuple[str, float] | None = None
+    for name in effects:
+        if any(name in get_effect(o).requires for o in effects if o != name):
+            continue
+        without_sse = _heldout_position_sse(model.without(name), prep, b, budget_iter)
+        gain = -math.log(max(with_sse, 1e-300) / max(without_sse, 1e-300))
+        need = settings.required(_n_params(name, effects), name, "position")
+        log(f"    without {name:28s} held-out position error x{math.exp(gain):.3f} "
+            f"(needs x{math.exp(need):.3f})")
+        if gain < need and (worst is None or gain - need < worst[1]):
+            worst = (name, gain - need)
+    return None if worst is None else (worst[0], worst[1])
+
+
 def _refit(start: GreyBox, prep: Prepared, b: Bounds, max_iter: int) -> PositionFitResult:
     """Refit every parameter of an accepted model from several starting loops.
 
@@ -914,6 +955,20 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     else:
         steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log, jac,
                                                       warnings, alt_loops)
+        # backward elimination: an effect a later one made unnecessary is dropped and the
+        # search run again without it (so that every step is one the final model keeps)
+        for _ in range(len(settings.candidates)):
+            redundant = _redundant_effect(steps[-1].model, prep, b, settings, log)
+            if redundant is None:
+                break
+            name = redundant[0]
+            warnings.append(f"dropped {name}: once the later effects are in, it no longer "
+                            "cuts the held-out position error by what adding it requires")
+            log(f"  - {name}: redundant, search again without it")
+            settings = dataclasses.replace(settings, candidates=tuple(
+                c for c in settings.candidates if c != name))
+            steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log,
+                                                          jac, warnings, alt_loops)
     # a repeated search rejects the same artefacts again: each warning once
     return SearchResult(steps, reason, floor, time.perf_counter() - t0,
                         list(dict.fromkeys(warnings)))
