@@ -203,6 +203,8 @@ def motion_events(v: np.ndarray, ts: float, *, rest_speed: float = 1e-6,
     ts = check_positive("ts", ts, "s")
     sgn = motion_sign(v, rest_speed).astype(int)
     gap_max = np.inf if max_gap is None else check_int("max_gap", max_gap, 0)
+    if v.shape[0] == 0:
+        return []
     a = np.gradient(v, ts) if v.shape[0] >= 2 else np.zeros_like(v)
     # maximal runs of equal sign
     change = np.flatnonzero(np.diff(sgn)) + 1

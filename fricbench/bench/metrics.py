@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fricbench.run_events import motion_sign, sign_reversals
+
 __all__ = ["REVERSAL_WINDOW_S", "RunMetrics", "contour_error", "reversal_indices", "score_run"]
 
 REVERSAL_WINDOW_S = 0.05  # s: the window after a reversal in which its peak error is taken
@@ -27,16 +29,10 @@ class RunMetrics:
 def reversal_indices(v_ref: np.ndarray, ts: float, rest_speed: float = 1e-6) -> np.ndarray:
     """Samples where the reference velocity changes sign (direct or after a dwell).
 
-    A reversal after a stop is placed where motion resumes in the opposite direction.
+    A reversal after a stop is placed where motion resumes in the opposite direction
+    (:func:`fricbench.run_events.sign_reversals`; ``ts`` is not used).
     """
-    v = np.asarray(v_ref, dtype=float)
-    moving = np.abs(v) > rest_speed
-    idx = np.flatnonzero(moving)
-    if idx.size < 2:
-        return np.zeros(0, dtype=np.int64)
-    signs = np.sign(v[idx])
-    flips = np.flatnonzero(signs[1:] != signs[:-1]) + 1
-    return idx[flips].astype(np.int64)
+    return sign_reversals(motion_sign(v_ref, rest_speed))
 
 
 def _peak_after(err: np.ndarray, marks: np.ndarray, window: int) -> float:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fricbench.run_events import motion_events, motion_sign
 from fricbench.sysid.friction_error import reference_velocity
 
 __all__ = ["FEATURE_SETS", "feature_names", "reference_features"]
@@ -35,7 +36,7 @@ _NAMES = {
                  "disp_since_turn", "a_at_turn", "time_since_rest", "time_to_next"),
 }
 
-_V_TOL = 1e-6  # m/s: below this the reference is at rest (fricbench.sysid.find_events)
+_V_TOL = 1e-6  # m/s: below this the reference is at rest (fricbench.run_events)
 
 
 def feature_names(feature_set: str) -> tuple[str, ...]:
@@ -82,14 +83,16 @@ def reference_features(x_ref: np.ndarray, ts: float, feature_set: str, v_break: 
     cols = [v, a, np.tanh(v / v_break)]
     if feature_set == "physical":
         k = np.arange(v.shape[0])
-        sgn = np.where(np.abs(v) > _V_TOL, np.sign(v), 0.0)
+        sgn = motion_sign(v, _V_TOL)
         moving = sgn != 0.0
         last_move = _last_true(moving)
         direction = np.where(last_move >= 0, sgn[np.maximum(last_move, 0)], 0.0)
-        prev_moving = np.concatenate([[False], moving[:-1]])
         prev_dir = np.concatenate([[0.0], direction[:-1]])
-        # turning point: motion begins after rest, or the direction of motion changes
-        turn = moving & (~prev_moving | (direction != prev_dir))
+        # turning point: motion begins after rest (any rest: max_gap=0), or the direction of
+        # motion changes; at the first moving sample
+        turn = np.zeros(v.shape[0], dtype=bool)
+        turn[[e.onset for e in motion_events(v, ts, rest_speed=_V_TOL, max_gap=0)
+              if e.kind != "stop"]] = True
         last_turn = _last_true(turn)
         j = np.maximum(last_turn, 0)
         seen = last_turn >= 0

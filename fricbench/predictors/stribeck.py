@@ -32,6 +32,7 @@ from scipy import optimize, signal
 from fricbench.axis import Axis, closed_loop
 from fricbench.predictors.base import Predictor, Run
 from fricbench.predictors.tf import check_tf_orders, fit_linear_part, tf_from_state, tf_state
+from fricbench.run_events import motion_sign
 from fricbench.sysid.friction_error import identify_v_break_multi, reference_velocity
 from fricbench.sysid.tf_fit import simulate_tf
 
@@ -94,7 +95,7 @@ class TFStribeckPredictor(Predictor):
 
     @staticmethod
     def _basis(v: np.ndarray, vs: float, b: np.ndarray, a: np.ndarray) -> np.ndarray:
-        sgn = np.where(np.abs(v) > _V_TOL, np.sign(v), 0.0)
+        sgn = motion_sign(v, _V_TOL)
         # friction enters the loop as d = -F_f
         coulomb = signal.lfilter(b, a, -sgn)
         stribeck = signal.lfilter(b, a, -np.exp(-((v / vs) ** 2)) * sgn)

@@ -5,7 +5,8 @@ Pipeline, for a run with reference ``x_ref`` and measured position ``x`` sampled
 1. :func:`tf_residual`: ``r = x - x_tf``, the free-run simulation of the identified transfer
    function subtracted from the measurement (the paper's "prediction error of the TF").
 2. :func:`find_events`: starts, stops and reversals of the reference (the paper's three
-   situations of three consecutive velocity samples).
+   situations of three consecutive velocity samples; :func:`fricbench.run_events.motion_events`
+   of the reference velocity).
 3. :func:`identify_v_break`: the break velocity, from where the measured axis leaves its rest
    position after each start and reversal (procedure below).
 4. :func:`presliding_mask` and :func:`extract_friction_error`: the pre-sliding windows around
@@ -48,9 +49,11 @@ import control
 import numpy as np
 
 from fricbench._validation import check_int, check_nonneg, check_positive
+from fricbench.run_events import EVENT_KINDS, MotionEvent, motion_events
 from fricbench.sysid.tf_fit import _as_signal, simulate_tf
 
 __all__ = [
+    "EVENT_KINDS",
     "MotionEvent",
     "Breakaway",
     "BreakVelocity",
@@ -65,33 +68,8 @@ __all__ = [
     "extract_friction_error",
 ]
 
-EVENT_KINDS = ("start", "stop", "reversal")
-
-
 class NoReversalError(ValueError):
     """A run without the starts or reversals that friction identification needs."""
-
-
-@dataclass(frozen=True)
-class MotionEvent:
-    """One start, stop or reversal of the reference.
-
-    Attributes
-    ----------
-    kind : {"start", "stop", "reversal"}
-    index : int
-        Sample of the turning point: last rest sample before a start, first rest sample of a
-        stop, the sample of smallest ``|v|`` at a reversal.
-    direction : int
-        ``+1`` or ``-1``: direction of motion after a start or reversal, before a stop.
-    accel : float
-        ``|a_ref|`` at ``index``, m/s^2 (``a0`` of the paper).
-    """
-
-    kind: str
-    index: int
-    direction: int
-    accel: float
 
 
 @dataclass(frozen=True)
@@ -188,10 +166,9 @@ def find_events(x_ref: np.ndarray, ts: float, *, v_tol: float = 1e-6,
                 max_gap: int = 2) -> list[MotionEvent]:
     """Starts, stops and reversals of a sampled reference.
 
-    The paper's rule on three consecutive velocity samples ``v1, v2, v3`` (start:
-    ``0, 0, !=0``; stop: ``!=0, 0, 0``; reversal: ``!=0, 0, !=0``) with "zero" meaning
-    ``|v| <= v_tol`` and a rest of at most ``max_gap`` samples between opposite motions counted
-    as a direct reversal (a smooth zero crossing may leave one or two samples under ``v_tol``).
+    :func:`fricbench.run_events.motion_events` of the reference velocity
+    (:func:`reference_velocity`): "zero" means ``|v| <= v_tol``, and a rest of at most
+    ``max_gap`` samples between opposite motions is a direct reversal.
 
     Parameters
     ----------
@@ -209,45 +186,10 @@ def find_events(x_ref: np.ndarray, ts: float, *, v_tol: float = 1e-6,
     list of MotionEvent
         In time order.
     """
-    v, a = reference_velocity(x_ref, ts)
+    v, _ = reference_velocity(x_ref, ts)
     v_tol = check_positive("v_tol", v_tol, "m/s")
     max_gap = check_int("max_gap", max_gap, 0)
-    sgn = np.where(np.abs(v) > v_tol, np.sign(v), 0.0).astype(int)
-    # maximal runs of equal sign
-    change = np.flatnonzero(np.diff(sgn)) + 1
-    bounds = np.concatenate([[0], change, [len(sgn)]])
-    runs = [(int(bounds[i]), int(bounds[i + 1]), int(sgn[bounds[i]]))
-            for i in range(len(bounds) - 1)]
-    events: list[MotionEvent] = []
-    for i, (lo, hi, s) in enumerate(runs):
-        if s == 0:
-            continue
-        prev = runs[i - 1] if i > 0 else None
-        if prev is not None and prev[2] != 0 and prev[2] != s:
-            # sign change between two samples: the turning point is the smaller |v|
-            k = lo if abs(v[lo]) < abs(v[lo - 1]) else lo - 1
-            events.append(MotionEvent("reversal", k, s, float(abs(a[k]))))
-        elif prev is None or prev[2] == 0:
-            before = runs[i - 2] if i >= 2 else None
-            gap = prev[1] - prev[0] if prev is not None else 0
-            if prev is not None and before is not None and before[2] == -s and gap <= max_gap:
-                k = prev[0] + int(np.argmin(np.abs(v[prev[0]:prev[1]])))
-                events.append(MotionEvent("reversal", k, s, float(abs(a[k]))))
-            elif prev is not None and before is not None and before[2] == s and gap <= max_gap:
-                continue  # momentary near-zero speed without a change of direction
-            else:
-                # motion from the first sample is a start too: the axis rests at x_ref[0]
-                # before the run (as in the simulator and in simulate_tf)
-                k = max(lo - 1, 0)
-                events.append(MotionEvent("start", k, s, float(abs(a[k]))))
-        nxt = runs[i + 1] if i + 1 < len(runs) else None
-        if nxt is not None and nxt[2] == 0:
-            after = runs[i + 2] if i + 2 < len(runs) else None
-            gap = nxt[1] - nxt[0]
-            if after is not None and gap <= max_gap:
-                continue  # handled as a reversal (or ignored) by the next motion run
-            events.append(MotionEvent("stop", hi, s, float(abs(a[min(hi, len(a) - 1)]))))
-    return events
+    return motion_events(v, ts, rest_speed=v_tol, max_gap=max_gap)
 
 
 # -- break velocity ---------------------------------------------------------------------------

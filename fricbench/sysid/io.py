@@ -36,6 +36,7 @@ from typing import BinaryIO
 import numpy as np
 
 from fricbench.run import Run
+from fricbench.run_events import hysteresis_sign, sign_reversals
 from fricbench.sysid.units import position_unit as _position_unit
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
@@ -86,33 +87,6 @@ RunData = Run
 
 
 # -- helpers ------------------------------------------------------------------------------------
-def _count_reversals(x: np.ndarray, ts: float, tol: float) -> int:
-    """Direction changes of ``x`` ignoring excursions smaller than ``tol`` (m)."""
-    # hysteresis on the position: a reversal is a turn by more than tol after a move
-    direction = 0
-    extreme = x[0]
-    count = 0
-    for value in x[:: max(1, int(round(1e-3 / ts)))]:
-        if direction >= 0:
-            if value > extreme:
-                extreme = value
-                if direction == 0 and value - x[0] > tol:
-                    direction = 1
-            elif extreme - value > tol:
-                if direction == 1:
-                    count += 1
-                direction = -1
-                extreme = value
-        else:
-            if value < extreme:
-                extreme = value
-            elif value - extreme > tol:
-                count += 1
-                direction = 1
-                extreme = value
-    return count
-
-
 def _effort_problem(u: np.ndarray, name: str | None, where: Callable[[int], str]) -> str | None:
     """Why the effort column ``u`` is degenerate, or None when it is usable."""
     lo, hi = EFFORT_RANGE
@@ -295,7 +269,10 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
             f"{100 * err_rms / span_ref:.0f} % of the stroke: are both columns in the same unit "
             "and the right ones?"
         )
-    n_rev = _count_reversals(xr, ts, max(1e-3 * span_ref, 1e-9))
+    # a reversal: the reference turns back by more than 0.1 % of its stroke (a hysteresis on
+    # the position read at 1 kHz, deaf to noise and dither)
+    step = max(1, int(round(1e-3 / ts)))
+    n_rev = int(sign_reversals(hysteresis_sign(xr[::step], max(1e-3 * span_ref, 1e-9))).size)
     if n_rev == 0:
         warnings.append(
             "the reference never reverses: friction levels, direction-dependent effects and "

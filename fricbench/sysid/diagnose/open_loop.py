@@ -29,6 +29,7 @@ from scipy.signal import butter, filtfilt
 
 from fricbench.axis import plant as PL
 from fricbench.axis.open_loop import initial_state, simulate_open_loop
+from fricbench.run_events import motion_sign
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
@@ -153,8 +154,7 @@ def _idim_start(effort: np.ndarray, y: np.ndarray, ts: float, effects: Sequence[
     uf = filtfilt(b, a, effort)
     v = np.gradient(yf, ts)
     acc = np.gradient(v, ts)
-    moving = np.abs(v) > 0.02 * sc["v_max"]
-    sgn = np.where(moving, np.sign(v), 0.0)
+    sgn = motion_sign(v, 0.02 * sc["v_max"])
     cols = [acc, v, sgn, np.ones_like(v)]
     idx = [PL.M, PL.B, PL.FC, PL.OFFSET]
     if "asymmetric_friction" in effects:

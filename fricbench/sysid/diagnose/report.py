@@ -14,6 +14,7 @@ import os
 import numpy as np
 
 from fricbench._atomic import atomic_write_via
+from fricbench.run_events import motion_sign, sign_reversals
 from fricbench.sysid.diagnose.diagnosis import DiagnosisResult
 from fricbench.sysid.diagnose.models import InverseDynamics
 from fricbench.sysid.units import position_unit
@@ -258,13 +259,10 @@ def _aligned(rb: np.ndarray, ra: np.ndarray, vr: np.ndarray, ts: float, before: 
     """Residual windows around each reversal of the reference velocity, signed so that every
     window shows a reversal towards positive velocity."""
     s = np.sign(vr)
-    nz = np.flatnonzero(s != 0)
     lags = np.arange(-int(before / ts), int(after / ts)) * ts
     wb: list[np.ndarray] = []
     wa: list[np.ndarray] = []
-    if nz.size < 2:
-        return wb, wa, lags
-    change = nz[1:][s[nz[1:]] != s[nz[:-1]]]
+    change = sign_reversals(motion_sign(vr, 0.0))
     i0, i1 = int(before / ts), int(after / ts)
     for i in change[:200]:
         if i - i0 < 0 or i + i1 > rb.shape[0]:

@@ -16,7 +16,7 @@ import numpy as np
 from scipy import optimize, signal
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
-           "block_folds", "reversal_mask", "period_candidates", "MIN_PERIODS_IN_STROKE",
+           "block_folds", "period_candidates", "MIN_PERIODS_IN_STROKE",
            "choose_filter", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
 
 MIN_PERIODS_IN_STROKE = 2.0
@@ -383,20 +383,6 @@ def block_folds(n: int, n_blocks: int = 20, n_folds: int = 2) -> np.ndarray:
     n_blocks = max(n_folds, min(n_blocks, n // 50))
     block = (np.arange(n) * n_blocks) // n
     return (block % n_folds).astype(np.int64)
-
-
-def reversal_mask(v: np.ndarray, ts: float, window: float = 0.1) -> np.ndarray:
-    """Samples within ``window`` seconds after a sign change of ``v`` (m/s)."""
-    s = np.sign(v)
-    nz = np.flatnonzero(s != 0)
-    mask = np.zeros(v.shape[0], dtype=bool)
-    if nz.size < 2:
-        return mask
-    change = nz[1:][s[nz[1:]] != s[nz[:-1]]]
-    w = max(1, int(round(window / ts)))
-    for i in change:
-        mask[i:i + w] = True
-    return mask
 
 
 def period_candidates(x: np.ndarray, r: np.ndarray, moving: np.ndarray, p_min: float,
