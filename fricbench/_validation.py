@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 __all__ = [
     "check_choice",
     "check_finite",
@@ -12,6 +14,7 @@ __all__ = [
     "check_nonneg",
     "check_positive",
     "check_range",
+    "check_signal",
 ]
 
 
@@ -71,3 +74,14 @@ def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ValueError(f"{name}={value!r}: expected one of {', '.join(map(repr, choices))}")
     return str(value)
+
+
+def check_signal(name: str, value: Any) -> np.ndarray:
+    """``value`` as a 1-D float array of finite samples."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} has shape {arr.shape}: expected a 1-D array of samples")
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise ValueError(f"{name} contains NaN or inf (first at sample {int(bad[0])})")
+    return arr

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fricbench._validation import check_int, check_nonneg, check_positive
+from fricbench._validation import check_int, check_nonneg, check_positive, check_signal
 
 __all__ = ["EVENT_KINDS", "MotionEvent", "hysteresis_sign", "motion_events", "motion_sign",
            "sign_reversals"]
@@ -57,16 +57,6 @@ class MotionEvent:
     onset: int
 
 
-def _signal(name: str, value: object) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} has shape {arr.shape}: expected a 1-D array of samples")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ValueError(f"{name} contains NaN or inf (first at sample {int(bad[0])})")
-    return arr
-
-
 def motion_sign(v: np.ndarray, rest_speed: float = 1e-6) -> np.ndarray:
     """Direction of motion of each sample: ``sign(v)`` where ``|v| > rest_speed``, else 0.
 
@@ -88,7 +78,7 @@ def motion_sign(v: np.ndarray, rest_speed: float = 1e-6) -> np.ndarray:
     ValueError
         ``v`` not 1-D or not finite, ``rest_speed`` negative or not finite.
     """
-    v = _signal("v", v)
+    v = check_signal("v", v)
     rest_speed = check_nonneg("rest_speed", rest_speed, "m/s")
     return np.where(np.abs(v) > rest_speed, np.sign(v), 0.0)
 
@@ -114,7 +104,7 @@ def hysteresis_sign(x: np.ndarray, tol: float) -> np.ndarray:
     ndarray of float, shape (K,)
         ``-1.0``, ``0.0`` (before the first move) or ``+1.0``.
     """
-    x = _signal("x", x)
+    x = check_signal("x", x)
     tol = check_positive("tol", tol, "m")
     out = np.zeros(x.shape[0])
     if x.shape[0] == 0:
@@ -155,7 +145,7 @@ def sign_reversals(sign: np.ndarray) -> np.ndarray:
     ndarray of int64
         Increasing sample indices.
     """
-    s = _signal("sign", sign)
+    s = check_signal("sign", sign)
     if np.any((s != -1.0) & (s != 0.0) & (s != 1.0)):
         raise ValueError("sign has values other than -1, 0 and +1: expected the output of "
                          "motion_sign or hysteresis_sign")
@@ -199,7 +189,7 @@ def motion_events(v: np.ndarray, ts: float, *, rest_speed: float = 1e-6,
     TypeError
         ``max_gap`` not an integer or None.
     """
-    v = _signal("v", v)
+    v = check_signal("v", v)
     ts = check_positive("ts", ts, "s")
     sgn = motion_sign(v, rest_speed).astype(int)
     gap_max = np.inf if max_gap is None else check_int("max_gap", max_gap, 0)

@@ -9,7 +9,7 @@ import numpy as np
 
 from fricbench.axis.batch import AxisBatch
 from fricbench.axis.params import Axis
-from fricbench.run import Run
+from fricbench.run import Run, validate_run_arrays
 from fricbench.trajectories.base import Reference
 
 __all__ = ["SimulationResult", "simulate", "simulate_many"]
@@ -90,7 +90,10 @@ class SimulationResult:
         if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)) or not 0 <= axis < d:
             raise ValueError(f"axis={axis!r}: expected an integer in 0..{d - 1}")
         ts = self.axes[0].controller.ts if self.axes else 0.0
-        return Run(self.t, x_ref[axis], x[axis], u[axis], ts=ts, source="fricbench.simulate",
+        arrs, _ = validate_run_arrays(self.t, x_ref[axis], x[axis], u[axis],
+                                      source="fricbench.simulate")
+        return Run(arrs["t"], arrs["x_ref"], arrs["x"], arrs["u"], ts=ts,
+                   source="fricbench.simulate",
                    columns={"t": "t", "x_ref": "x_ref", "x": "x", "u": "u"})
 
 

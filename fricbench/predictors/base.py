@@ -50,7 +50,7 @@ from fricbench._safe_load import (
 )
 from fricbench.exceptions import NotFittedError
 from fricbench.registry import RegistryEntry
-from fricbench.run import Run
+from fricbench.run import Run, validate_run_arrays
 from fricbench.sysid.friction_error import find_events
 from fricbench.trajectories.base import Reference
 
@@ -72,27 +72,8 @@ def _run_arrays(obj: Any, i: int) -> Run:
         if not hasattr(obj, name):
             raise TypeError(f"runs[{i}]={type(obj).__name__}: expected a Run or a "
                             f"SimulationResult (an object with t, x_ref and x); missing {name!r}")
-    arrs = {}
-    for name in ("t", "x_ref", "x"):
-        a = np.asarray(getattr(obj, name), dtype=float)
-        if a.ndim != 1:
-            raise ValueError(f"runs[{i}].{name} has shape {a.shape}: expected a 1-D array "
-                             "(a single-axis run)")
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise ValueError(f"runs[{i}].{name} contains NaN or inf (first at sample {bad[0]})")
-        arrs[name] = a
-    k = arrs["t"].shape[0]
-    for name in ("x_ref", "x"):
-        if arrs[name].shape[0] != k:
-            raise ValueError(f"runs[{i}]: t has {k} samples but {name} has "
-                             f"{arrs[name].shape[0]}: every array must have the same length")
-    if k < 3:
-        raise ValueError(f"runs[{i}] has {k} samples: need at least 3")
-    dt = np.diff(arrs["t"])
-    if dt[0] <= 0 or np.max(np.abs(dt - dt[0])) > 1e-6 * dt[0]:
-        raise ValueError(f"runs[{i}].t is not uniformly increasing: predictors need one sample "
-                         "time per run")
+    arrs, _ = validate_run_arrays(obj.t, obj.x_ref, obj.x, min_samples=3,
+                                  labels={key: f"runs[{i}].{key}" for key in ("t", "x_ref", "x")})
     return Run(arrs["t"], arrs["x_ref"], arrs["x"])
 
 

@@ -48,9 +48,9 @@ from dataclasses import dataclass, field
 import control
 import numpy as np
 
-from fricbench._validation import check_int, check_nonneg, check_positive
+from fricbench._validation import check_int, check_nonneg, check_positive, check_signal
 from fricbench.run_events import EVENT_KINDS, MotionEvent, motion_events
-from fricbench.sysid.tf_fit import _as_signal, simulate_tf
+from fricbench.sysid.tf_fit import simulate_tf
 
 __all__ = [
     "EVENT_KINDS",
@@ -144,7 +144,7 @@ def reference_velocity(x_ref: np.ndarray, ts: float) -> tuple[np.ndarray, np.nda
     prediction alike, so that they never depend on how a reference was generated.
     """
     ts = check_positive("ts", ts, "s")
-    x_ref = _as_signal("x_ref", x_ref)
+    x_ref = check_signal("x_ref", x_ref)
     if x_ref.shape[0] < 3:
         raise ValueError(f"x_ref has {x_ref.shape[0]} samples: need at least 3")
     v = np.gradient(x_ref, ts)
@@ -154,8 +154,8 @@ def reference_velocity(x_ref: np.ndarray, ts: float) -> tuple[np.ndarray, np.nda
 def tf_residual(tf: control.TransferFunction, x_ref: np.ndarray, x: np.ndarray,
                 ts: float) -> np.ndarray:
     """TF residual ``r = x - x_tf`` with ``x_tf`` the free-run simulation of ``tf``, m."""
-    x_ref = _as_signal("x_ref", x_ref)
-    x = _as_signal("x", x)
+    x_ref = check_signal("x_ref", x_ref)
+    x = check_signal("x", x)
     if x.shape != x_ref.shape:
         raise ValueError(f"x_ref has {x_ref.shape[0]} samples but x has {x.shape[0]}")
     return x - simulate_tf(tf, x_ref, ts)
@@ -259,8 +259,8 @@ def identify_v_break_multi(
     n_events = 0
     for j, (xr, xm) in enumerate(zip(x_refs, xs, strict=True)):
         label = f"[{j}]" if len(x_refs) > 1 else ""
-        xr = _as_signal(f"x_ref{label}", xr)
-        xm = _as_signal(f"x{label}", xm)
+        xr = check_signal(f"x_ref{label}", xr)
+        xm = check_signal(f"x{label}", xm)
         if xr.shape != xm.shape:
             raise ValueError(f"x_ref{label} has {xr.shape[0]} samples but x{label} has "
                              f"{xm.shape[0]}")

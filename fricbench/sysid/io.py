@@ -35,7 +35,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from fricbench.run import Run
+from fricbench.run import Run, validate_run_arrays
 from fricbench.run_events import hysteresis_sign, sign_reversals
 from fricbench.sysid.units import position_unit as _position_unit
 
@@ -160,53 +160,17 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     def where(i: int) -> str:
         return f"line {int(line_numbers[i])}" if line_numbers is not None else f"sample {i}"
 
-    arrays = {"t": t, "x_ref": x_ref, "x": x}
-    if u is not None:
-        arrays["u"] = u
-    clean: dict[str, np.ndarray] = {}
-    length = None
-    for key, value in arrays.items():
-        arr = np.asarray(value, dtype=float)
-        if arr.ndim != 1:
-            raise DataError(f"{source}: column {names.get(key)!r} has shape {arr.shape}: "
-                            "expected one value per row")
-        if length is not None and arr.shape[0] != length:
-            raise DataError(f"{source}: column {names.get(key)!r} has {arr.shape[0]} values, "
-                            f"expected {length}")
-        length = arr.shape[0]
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            i = int(bad[0])
-            raise DataError(f"{source}: {where(i)}, column {names.get(key)!r}: "
-                            f"value {float(arr[i])!r} is not finite ({bad.size} such rows); "
-                            "remove or fill them")
-        clean[key] = arr
-    n = int(length or 0)
-    if n < MIN_SAMPLES:
-        raise DataError(f"{source}: {n} samples: too short, need at least {MIN_SAMPLES} "
-                        "(the diagnosis fits a dynamic model and holds part of the run out)")
-    tt = clean["t"]
-    dt = np.diff(tt)
-    if np.any(dt <= 0.0):
-        i = int(np.flatnonzero(dt <= 0.0)[0])
-        raise DataError(f"{source}: column {names['t']!r} does not increase at {where(i + 1)} "
-                        f"({float(tt[i])!r} then {float(tt[i + 1])!r}); expected strictly "
-                        "increasing time")
-    ts = float(np.median(dt))
+    units = {"time": "s", "position": si, "position_logged": unit.name, "effort": "N"}
+    clean, ts = validate_run_arrays(
+        t, x_ref, x, u, source=source, where=where, min_samples=MIN_SAMPLES,
+        labels={key: f"column {name!r}" for key, name in names.items()},
+        too_short_why=" (the diagnosis fits a dynamic model and holds part of the run out)",
+        max_jitter=TIME_JITTER_TOLERANCE, units=units, error=DataError)
     ts_lo, ts_hi = SAMPLE_TIME_RANGE
     if not ts_lo <= ts <= ts_hi:
         raise DataError(f"{source}: column {names['t']!r}: sample time {ts:.6g} s (the median "
                         f"step) is outside [{ts_lo:g}, {ts_hi:g}] s, the sample times of a "
                         "servo-axis log (1 MHz to 10 Hz); is the column in seconds?")
-    dev = np.abs(dt - ts) / ts
-    if np.max(dev) > TIME_JITTER_TOLERANCE:
-        i = int(np.argmax(dev))
-        raise DataError(
-            f"{source}: irregular sampling: the step to {where(i + 1)} is "
-            f"{dt[i]:.6g} s against the median {ts:.6g} s ({100 * dev[i]:.1f} % off, "
-            f"{int(np.sum(dev > TIME_JITTER_TOLERANCE))} steps beyond "
-            f"{100 * TIME_JITTER_TOLERANCE:g} %); resample the run to a uniform step first"
-        )
     xr, xm = clean["x_ref"], clean["x"]
     for key, arr in (("x_ref", xr), ("x", xm)):
         i = int(np.argmax(np.abs(arr)))
@@ -279,10 +243,8 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
             "backlash cannot be separated from a constant force; coulomb_friction, "
             "stribeck_friction, asymmetric_friction and backlash are not tried"
         )
-    return RunData(t=tt, x_ref=xr, x=xm, u=uu, ts=ts, source=source,
-                   columns=names, warnings=tuple(warnings), n_reversals=n_rev,
-                   units={"time": "s", "position": si, "position_logged": unit.name,
-                          "effort": "N"})
+    return RunData(t=clean["t"], x_ref=xr, x=xm, u=uu, ts=ts, source=source,
+                   columns=names, warnings=tuple(warnings), n_reversals=n_rev, units=units)
 
 
 # -- reading ------------------------------------------------------------------------------------

@@ -43,7 +43,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from fricbench._blas import one_blas_thread
-from fricbench._validation import check_int, check_positive
+from fricbench._validation import check_int, check_positive, check_signal
 
 __all__ = ["fit_tf", "fit_tf_multi", "simulate_tf", "tf_error_response", "TFFitError"]
 
@@ -55,19 +55,9 @@ class TFFitError(ValueError):
 
 
 # -- validation -------------------------------------------------------------------------------
-def _as_signal(name: str, value: object) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} has shape {arr.shape}: expected a 1-D array of samples")
-    if not np.all(np.isfinite(arr)):
-        bad = int(np.flatnonzero(~np.isfinite(arr))[0])
-        raise ValueError(f"{name} contains NaN or inf (first at sample {bad})")
-    return arr
-
-
 def _check_pair(x_ref: object, x: object, label: str = "") -> tuple[np.ndarray, np.ndarray]:
-    xr = _as_signal(f"x_ref{label}", x_ref)
-    xm = _as_signal(f"x{label}", x)
+    xr = check_signal(f"x_ref{label}", x_ref)
+    xm = check_signal(f"x{label}", x)
     if xr.shape != xm.shape:
         raise ValueError(
             f"x_ref{label} has {xr.shape[0]} samples but x{label} has {xm.shape[0]}: "
@@ -157,7 +147,7 @@ def tf_error_response(tf: control.TransferFunction, x_ref: np.ndarray, ts: float
         Predicted tracking error, m; the loop starts at rest in steady state at ``x_ref[0]``.
     """
     ts = check_positive("ts", ts, "s")
-    u = _as_signal("x_ref", x_ref)
+    u = check_signal("x_ref", x_ref)
     num, den = _tf_coeffs(tf)
     num_full = np.concatenate([np.zeros(len(den) - len(num)), num])
     # E/X_ref = 1 - G = C/D with C = D - N
@@ -189,7 +179,7 @@ def simulate_tf(tf: control.TransferFunction, x_ref: np.ndarray, ts: float) -> n
         Simulated position, m. First-order-hold discretisation; the loop starts at rest in
         steady state at ``x_ref[0]`` (as a servo axis does before a run).
     """
-    u = _as_signal("x_ref", x_ref)
+    u = check_signal("x_ref", x_ref)
     return u - tf_error_response(tf, u, ts)
 
 
@@ -321,7 +311,7 @@ def fit_tf_multi(
         if weights is None:
             sqrt_w.append(np.ones_like(u))
         else:
-            w_arr = _as_signal(f"weights{label}", weights[j])
+            w_arr = check_signal(f"weights{label}", weights[j])
             if w_arr.shape != u.shape or np.any(w_arr < 0):
                 raise ValueError(f"weights{label}: expected {u.shape[0]} non-negative values")
             sqrt_w.append(np.sqrt(w_arr))
