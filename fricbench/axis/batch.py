@@ -18,6 +18,10 @@ class SimulationDivergedError(FloatingPointError):
 
 def _stability_hint(axis: Axis) -> str:
     c, m = axis.controller, axis.mechanics
+    if c.law == "linear":
+        return (f"likely cause: the identified linear law does not hold this plant (mass = "
+                f"{m.mass:g} kg, kt = {c.kt:g} N/A, ts = {c.ts:g} s; friction: "
+                f"{axis.friction.to_dict()})")
     wv = c.kv * c.kt / m.mass
     return (
         f"likely cause: an unstable loop for these parameters (velocity-loop bandwidth "

@@ -17,6 +17,16 @@ Per control sample ``k`` (period ``Ts``, zero-order hold on the current command)
 4. the plant: optional pure delay of ``d`` samples, current saturation ``|i| <= i_max``, the
    mechanics over ``n_sub`` substeps, backlash, thermal drift and the sensor
    (:func:`fricbench.axis.plant.advance`, :func:`fricbench.axis.plant.sense`).
+
+An axis whose controller is an identified linear law (``ControllerParams.law = "linear"``,
+``P_LAW = 1``: the digital twin a diagnosis writes) replaces steps 2 and 3 by that law in its
+reference form::
+
+    u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_j c_j x_fb[k-j]
+    i = sat(u[k]) + u_comp / Kt
+
+the same law :mod:`fricbench.axis.linear_law` runs for the diagnosis, with its reference taps
+folded into position, velocity and acceleration gains.
 """
 
 from __future__ import annotations
@@ -48,13 +58,25 @@ P_PD_GRAD, P_PD_SIN, P_PD_COS, P_PD_PERIOD = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, P
 P_BACKLASH, P_TH_AMP, P_TH_TAU, P_QUANT, P_NOISE, P_MEAS_TABLE = (
     PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.QUANT, PL.NOISE, PL.MEAS_TABLE)
 P_KP, P_KVFF, P_KAFF, P_KV, P_TI = range(N_PLANT, N_PLANT + 5)
-N_PARAMS = N_PLANT + 5
+# the identified linear law that replaces the cascade when P_LAW is 1:
+# u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_j c_j y_fb[k-j]
+LAW_NA_MAX = 4
+"""Most recursion coefficients ``a_1 .. a_na`` of a linear law."""
+LAW_NC_MAX = 8
+"""Most position coefficients ``c_0 .. c_(nc-1)`` of a linear law."""
+P_LAW, P_LAW_NA, P_LAW_NC, P_LAW_KX, P_LAW_KV, P_LAW_KA = range(N_PLANT + 5, N_PLANT + 11)
+P_LAW_A = N_PLANT + 11
+P_LAW_C = P_LAW_A + LAW_NA_MAX
+N_PARAMS = P_LAW_C + LAW_NC_MAX
 
 # -- state vector layout (columns of S): the plant's state, then the cascade's ---------------------
 S_X, S_V, S_XPLAY, S_Z = PL.S_X, PL.S_V, PL.S_XPLAY, PL.S_Z
 S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(4, 11)
 S_DBUF = 11
-N_STATE = S_DBUF + DELAY_MAX
+# the linear law's histories: u[k-1] .. u[k-na] and y_fb[k-1] .. y_fb[k-nc+1]
+S_LAW_U = S_DBUF + DELAY_MAX
+S_LAW_Y = S_LAW_U + LAW_NA_MAX
+N_STATE = S_LAW_Y + LAW_NC_MAX
 
 # -- status codes ---------------------------------------------------------------------------------
 STATUS_OK = 0
@@ -96,22 +118,47 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     x, v, x_play, z = s[S_X], s[S_V], s[S_XPLAY], s[S_Z]
     integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
     x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
+    law = p[P_LAW] > 0.5
+    na, nc = int(p[P_LAW_NA]), int(p[P_LAW_NC])
     for k in range(n_samples):
         x_true[n, k] = x_play
         x_meas[n, k] = x_logged
         # -- controller ----------------------------------------------------------------
         off = u_off[n, k]
-        # v_cmd = Kp (x_r - x_fb) + kvff v_r   (the offset's rate enters the feedforward)
-        v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + (off - off_prev) / ts)
+        # the offset enters as a reference change, its rate as a reference velocity
+        v_off = (off - off_prev) / ts
         off_prev = off
-        e_v = v_cmd - (x_fb - x_fb_prev) / ts
-        # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
-        i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
-        # -- plant: actuator ------------------------------------------------------------
-        i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
-        # clamping anti-windup: freeze I while the output saturates in the direction of e_v
-        if not (clipped * e_v > 0.0):
-            integ += ki * e_v
+        if law:
+            # u = sum_i a_i u[k-i] + k_x (x_r + off) + k_v (v_r + v_off) + k_a a_r
+            #     + sum_j c_j y_fb[k-j]
+            u_law = (p[P_LAW_KX] * (xr[n, k] + off) + p[P_LAW_KV] * (vr[n, k] + v_off)
+                     + p[P_LAW_KA] * ar[n, k] + p[P_LAW_C] * x_fb)
+            for i in range(na):
+                u_law += p[P_LAW_A + i] * s[S_LAW_U + i]
+            for j in range(1, nc):
+                u_law += p[P_LAW_C + j] * s[S_LAW_Y + j - 1]
+            # the law recurses on its clipped output (a drive logs what it applies), so a
+            # velocity-form law winds up no integrator
+            u_law = min(max(u_law, -c.i_max), c.i_max)
+            for i in range(na - 1, 0, -1):
+                s[S_LAW_U + i] = s[S_LAW_U + i - 1]
+            s[S_LAW_U] = u_law
+            for j in range(nc - 2, 0, -1):
+                s[S_LAW_Y + j] = s[S_LAW_Y + j - 1]
+            s[S_LAW_Y] = x_fb
+            i_cmd = u_law + u_force[n, k] / kt
+            i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
+        else:
+            # v_cmd = Kp (x_r - x_fb) + kvff v_r
+            v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + v_off)
+            e_v = v_cmd - (x_fb - x_fb_prev) / ts
+            # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
+            i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
+            # -- plant: actuator --------------------------------------------------------
+            i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
+            # clamping anti-windup: freeze I while the output saturates in the direction of e_v
+            if not (clipped * e_v > 0.0):
+                integ += ki * e_v
         f_motor = kt * i_app
         # -- plant: mechanics over n_sub substeps ---------------------------------------
         x, v, z, x_play, f_fric = PL.advance(c, x, v, z, x_play, f_motor)
@@ -206,7 +253,9 @@ def _initial_measure(P: np.ndarray, S: np.ndarray, noise: np.ndarray) -> None:
 def initial_state(P: np.ndarray, x0: np.ndarray, v0: np.ndarray, noise: np.ndarray) -> np.ndarray:
     """States of ``N`` axes at rest-or-moving initial conditions, with a first measurement.
 
-    The velocity filter starts settled (``x_fb[-1] = x_fb[0]``) and the integrator at zero.
+    The cascade's velocity filter starts settled (``x_fb[-1] = x_fb[0]``) and its integrator
+    at zero; a linear law's position history is the first reading extrapolated back at ``v0``
+    (``y_fb[-j] = y_fb[0] - j v0 ts``), its output history zero.
     """
     n = P.shape[0]
     S = np.zeros((n, N_STATE))
@@ -214,6 +263,9 @@ def initial_state(P: np.ndarray, x0: np.ndarray, v0: np.ndarray, noise: np.ndarr
     S[:, S_V] = v0
     S[:, S_XPLAY] = x0
     _initial_measure(P, S, noise)
+    back = np.arange(1, LAW_NC_MAX + 1)
+    S[:, S_LAW_Y:S_LAW_Y + LAW_NC_MAX] = (S[:, S_XFB, None]
+                                          - np.outer(np.asarray(v0) * P[:, P_TS], back))
     return S
 
 
@@ -223,6 +275,8 @@ __all__ = [
     "KIND_DAHL",
     "KIND_LUGRE",
     "KIND_STATIC",
+    "LAW_NA_MAX",
+    "LAW_NC_MAX",
     "N_PARAMS",
     "N_STATE",
     "STATUS_NONFINITE",

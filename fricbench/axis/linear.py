@@ -104,6 +104,8 @@ def controller(axis: Axis) -> control.StateSpace:
 
 
 def _controller(c: ControllerParams, m: MechanicsParams) -> control.StateSpace:
+    if c.law == "linear":
+        return _law_controller(c)
     ts, kp, kvff = c.ts, c.kp, c.kvff
     gain = c.kt * c.kv
     ki = ts / c.ti if c.ti > 0 else 0.0
@@ -117,6 +119,34 @@ def _controller(c: ControllerParams, m: MechanicsParams) -> control.StateSpace:
     return control.ss(a, b, cm[None, :], d[None, :], ts,
                       inputs=["x_ref", "v_ref", "a_ref", "u", "x"], outputs=["F"],
                       states=["x_prev", "I"], name="controller")
+
+
+def _law_controller(c: ControllerParams) -> control.StateSpace:
+    """The identified linear law (``law="linear"``) as the controller block of
+    :func:`controller`: ``F = kt u_law + u`` with
+    ``u_law = sum_i a_i u_law[k-i] + k_x x_ref + k_v v_ref + k_a a_ref + sum_j c_j x[k-j]``;
+    states ``x[k-1] .. x[k-nc+1]`` then ``u_law[k-1] .. u_law[k-na]``."""
+    a, cpos, kref = (np.asarray(v, dtype=float) for v in
+                     (c.law_recursion, c.law_position, c.law_reference))
+    ny, nu = cpos.shape[0] - 1, a.shape[0]
+    n = max(ny + nu, 1)  # a static law keeps one inert state (python-control wants one)
+    # output row: u_law = h' s + g' [x_ref, v_ref, a_ref, u, x]
+    h = np.zeros(n)
+    h[:ny] = cpos[1:]
+    h[ny:ny + nu] = a
+    g = np.array([kref[0], kref[1], kref[2], 0.0, cpos[0]])
+    am, bm = np.zeros((n, n)), np.zeros((n, 5))
+    if ny:
+        bm[0, 4] = 1.0  # x[k-1]+ = x[k]
+        am[1:ny, 0:ny - 1] = np.eye(ny - 1)
+    if nu:
+        am[ny, :] = h  # u[k-1]+ = u_law[k]
+        bm[ny, :] = g
+        am[ny + 1:ny + nu, ny:ny + nu - 1] = np.eye(nu - 1)
+    states = [f"x[k-{j}]" for j in range(1, ny + 1)] + [f"u[k-{i}]" for i in range(1, nu + 1)]
+    return control.ss(am, bm, c.kt * h[None, :], (c.kt * g + np.array([0, 0, 0, 1.0, 0]))[None, :],
+                      c.ts, inputs=["x_ref", "v_ref", "a_ref", "u", "x"], outputs=["F"],
+                      states=states or ["inert"], name="controller")
 
 
 def closed_loop(axis: Axis) -> control.StateSpace:
@@ -170,6 +200,13 @@ def check_stability(axis: Axis) -> None:
     rho = _radius(c, m, delay)
     if rho <= 1.0 + STABILITY_MARGIN:
         return
+    if c.law == "linear":
+        raise ValueError(f"controller.law_position={list(c.law_position)!r} with "
+                         f"law_recursion={list(c.law_recursion)!r}, kt={c.kt:g} N/A, "
+                         f"mechanics.mass={m.mass:g} kg, damping={m.damping:g} N s/m: the "
+                         f"sampled closed loop of the linear law is unstable (pole |z|="
+                         f"{rho:.4g} at ts={c.ts:g} s, {delay} samples of delay); expected "
+                         "every pole |z| <= 1")
     raise ValueError(_unstable_message(c, m, delay, rho))
 
 
@@ -228,6 +265,10 @@ def closed_loop_tf_continuous(axis: Axis) -> control.TransferFunction:
     + K (1 + ti kp) s + K kp]``; the paper's eq. (22) has the same form without the integral.
     """
     c, m = axis.controller, axis.mechanics
+    if c.law == "linear":
+        raise ValueError("closed_loop_tf_continuous: the axis runs an identified linear law "
+                         "(controller.law='linear'), a discrete law with no continuous form; "
+                         "use closed_loop(axis)")
     gain, mass, damp = c.kt * c.kv, m.mass, m.damping
     s = control.tf("s")
     if c.ti > 0:

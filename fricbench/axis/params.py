@@ -21,6 +21,7 @@ from fricbench._validation import (
     check_range,
 )
 from fricbench.axis import kernel as K
+from fricbench.axis import plant as PL
 from fricbench.friction import FrictionModel, Stribeck, make_friction
 
 __all__ = ["Axis", "ControllerParams", "Effects", "MechanicsParams"]
@@ -50,6 +51,20 @@ class ControllerParams:
         Force constant of motor and screw on the table side, N/A.
     i_max : float
         Current saturation, A.
+    law : {"cascade", "linear"}
+        The controller: the cascade above, or an identified linear discrete law (the digital
+        twin of a measured axis, written by ``fricbench diagnose --env-out``) that replaces
+        ``kp, kvff, kaff, kv, ti``:
+        ``i[k] = sum_i a_i i[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_j c_j x[k-j]``.
+    law_reference : tuple of float
+        ``(k_x, k_v, k_a)``: the law's gains on the reference position (A/m), velocity
+        (A s/m) and acceleration (A s^2/m).
+    law_position : tuple of float
+        ``c_0 .. c_(nc-1)``: its gains on the measured position ``x[k] .. x[k-nc+1]``, A/m
+        (at most :data:`~fricbench.axis.kernel.LAW_NC_MAX`).
+    law_recursion : tuple of float
+        ``a_1 .. a_na``: its gains on its own past outputs (``a_1 = 1``: an integrator; at most
+        :data:`~fricbench.axis.kernel.LAW_NA_MAX`).
     """
 
     ts: float = 1.0e-3
@@ -61,6 +76,10 @@ class ControllerParams:
     ti: float = 0.02
     kt: float = 600.0
     i_max: float = 15.0
+    law: str = "cascade"
+    law_reference: tuple[float, ...] = ()
+    law_position: tuple[float, ...] = ()
+    law_recursion: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         check_range("ts", self.ts, 1e-5, 0.1, "s")
@@ -72,6 +91,21 @@ class ControllerParams:
         check_nonneg("ti", self.ti, "s")
         check_positive("kt", self.kt, "N/A")
         check_positive("i_max", self.i_max, "A")
+        check_choice("law", self.law, ("cascade", "linear"))
+        sizes = {"law_reference": (3, 3), "law_position": (1, K.LAW_NC_MAX),
+                 "law_recursion": (0, K.LAW_NA_MAX)}
+        for name, (lo, hi) in sizes.items():
+            value = getattr(self, name)
+            if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+                raise TypeError(f"{name}={value!r}: expected a sequence of numbers")
+            coef = tuple(check_finite(f"{name}[{i}]", v) for i, v in enumerate(value))
+            object.__setattr__(self, name, coef)
+            if self.law == "linear" and not lo <= len(coef) <= hi:
+                raise ValueError(f"{name}={list(coef)!r}: expected {lo} to {hi} numbers for "
+                                 "law='linear'")
+            if self.law == "cascade" and coef:
+                raise ValueError(f"{name}={list(coef)!r}: a coefficient of the linear law, "
+                                 "given with law='cascade'; set law='linear' or leave it out")
 
 
 @dataclass(frozen=True)
@@ -116,7 +150,14 @@ class Effects:
     cogging_phase : float
         Phase of the ripple, rad.
     friction_gradient : float
-        Linear change of the friction levels along the stroke, 1/m (``1 + grad x``).
+        Linear change of the friction levels along the stroke, 1/m
+        (``1 + grad (x - friction_center)``).
+    friction_center : float
+        Position where the gradient's factor is 1, m.
+    coulomb_asymmetry : float
+        Coulomb level moving forward minus moving backward, N (``fc +- asymmetry / 2``).
+    viscous_asymmetry : float
+        Viscous damping moving forward minus moving backward, N s/m (``B +- asymmetry / 2``).
     friction_variation : float
         Relative amplitude of a periodic friction variation along the stroke (0..0.9).
     friction_variation_period : float
@@ -146,6 +187,9 @@ class Effects:
     cogging_period: float = 5.0e-3
     cogging_phase: float = 0.0
     friction_gradient: float = 0.0
+    friction_center: float = 0.0
+    coulomb_asymmetry: float = 0.0
+    viscous_asymmetry: float = 0.0
     friction_variation: float = 0.0
     friction_variation_period: float = 0.05
     friction_variation_phase: float = 0.0
@@ -163,6 +207,9 @@ class Effects:
         check_positive("cogging_period", self.cogging_period, "m")
         check_finite("cogging_phase", self.cogging_phase)
         check_range("friction_gradient", self.friction_gradient, -1.0, 1.0, "1/m")
+        check_finite("friction_center", self.friction_center)
+        check_finite("coulomb_asymmetry", self.coulomb_asymmetry)
+        check_finite("viscous_asymmetry", self.viscous_asymmetry)
         check_range("friction_variation", self.friction_variation, 0.0, 0.9)
         check_positive("friction_variation_period", self.friction_variation_period, "m")
         check_finite("friction_variation_phase", self.friction_variation_phase)
@@ -298,6 +345,13 @@ class Axis:
         p[K.P_KV] = c.kv
         # the kernel integrates I in velocity units: I += Ts/Ti e_v
         p[K.P_TI] = c.ti
+        if c.law == "linear":
+            p[K.P_LAW] = 1.0
+            p[K.P_LAW_NA] = len(c.law_recursion)
+            p[K.P_LAW_NC] = len(c.law_position)
+            p[K.P_LAW_KX], p[K.P_LAW_KV], p[K.P_LAW_KA] = c.law_reference
+            p[K.P_LAW_A:K.P_LAW_A + len(c.law_recursion)] = c.law_recursion
+            p[K.P_LAW_C:K.P_LAW_C + len(c.law_position)] = c.law_position
         p[K.P_FLOAD] = m.load
         p[K.P_FKIND] = f["kind"]
         p[K.P_FC] = f["fc"]
@@ -315,6 +369,9 @@ class Axis:
         p[K.P_COG_COS] = e.cogging_amplitude * math.sin(e.cogging_phase)
         p[K.P_COG_PERIOD] = e.cogging_period
         p[K.P_PD_GRAD] = e.friction_gradient
+        p[PL.PD_CENTER] = e.friction_center
+        p[K.P_DFC] = e.coulomb_asymmetry
+        p[K.P_DB] = e.viscous_asymmetry
         p[K.P_PD_SIN] = e.friction_variation * math.cos(e.friction_variation_phase)
         p[K.P_PD_COS] = e.friction_variation * math.sin(e.friction_variation_phase)
         p[K.P_PD_PERIOD] = e.friction_variation_period

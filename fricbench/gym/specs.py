@@ -296,7 +296,14 @@ def _is_real(value: Any) -> bool:
 
 
 def _check_scalar(key: str, value: Any, default: Any, problems: list[str]) -> bool:
-    """A TOML scalar of the kind of ``default`` (number, string or boolean)."""
+    """A TOML scalar of the kind of ``default`` (number, string or boolean), or an array of
+    numbers where the default is a tuple (a linear law's coefficients)."""
+    if isinstance(default, tuple):
+        ok = (isinstance(value, (list, tuple)) and len(value) <= _MAX_LIST
+              and all(_is_real(v) for v in value))
+        if not ok:
+            problems.append(f"{key}={_show(value)}: expected an array of numbers")
+        return ok
     if isinstance(default, bool) or default is MISSING and isinstance(value, bool):
         ok, need = isinstance(value, bool), "true or false"
     elif isinstance(default, str) or default is MISSING and isinstance(value, str):
