@@ -106,11 +106,28 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     spec = get_spec(args.env)
     axis = spec.axis
-    ref = make_trajectory(args.trajectory, ts=axis.controller.ts)
+    measured = None
+    if args.reference_csv:
+        if args.trajectory is not None:
+            raise ValueError(f"--trajectory {args.trajectory} and --reference-csv "
+                             f"{args.reference_csv}: give one reference")
+        for opt in ("time", "reference", "position"):
+            if getattr(args, opt) is not None and not getattr(args, opt).strip():
+                raise ValueError(f"--{opt} {getattr(args, opt)!r}: expected a column name or "
+                                 "a 0-based index")
+        ref, measured = _reference_from_csv(args, axis.controller.ts)
+        args.trajectory = f"the reference of {args.reference_csv}"
+    else:
+        for opt in ("time", "reference", "position"):
+            if getattr(args, opt) is not None:
+                raise ValueError(f"--{opt} {getattr(args, opt)}: only with --reference-csv")
+        args.trajectory = args.trajectory or "m_serial"
+        ref = make_trajectory(args.trajectory, ts=axis.controller.ts)
     if args.polar and ref.name != "circle":
         raise ValueError(f"--polar {args.polar}: the ballbar plot is drawn for the circle "
                          f"trajectory, not {args.trajectory!r} (use --trajectory circle)")
-    res = simulate(axis, ref, seed=args.seed)
+    res = simulate(axis, ref, seed=args.seed,
+                   x0=None if measured is None else float(measured[0]))
     if args.csv:
         cols = write_csv(res, args.csv)
         print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (s, m, m, N)")
@@ -124,7 +141,37 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     err = np.atleast_2d(res.error) * 1e6
     print(f"{args.env} / {args.trajectory}: max |e| = {np.abs(err).max():.2f} um, "
           f"rms = {np.sqrt((err**2).mean()):.2f} um over {res.t[-1]:.2f} s")
+    if measured is not None:
+        dev = (res.x - measured) * 1e6
+        print(f"replay against the measured position ({args.position}): rms "
+              f"{np.sqrt(np.mean(dev**2)):.4g} um, max {np.max(np.abs(dev)):.4g} um")
     return 0
+
+
+def _reference_from_csv(args: argparse.Namespace, ts: float) -> tuple[Any, Any]:
+    """The reference of ``--reference-csv`` (velocity and acceleration by central
+    differences, as the diagnosis takes them) and the measured position when ``--position``
+    names one."""
+    import numpy as np
+
+    from fricbench.sysid.io import DataError, load_run
+    from fricbench.trajectories import Reference
+
+    try:
+        run = load_run(args.reference_csv, time=args.time or "t",
+                       reference=args.reference or "x_ref",
+                       position=args.position or args.reference or "x_ref", effort=None)
+    except DataError as exc:
+        raise ValueError(str(exc)) from None
+    if abs(run.ts - ts) > 1e-6 * ts:
+        raise ValueError(f"--reference-csv {args.reference_csv}: sampled every {run.ts:g} s but "
+                         f"{args.env} runs at ts={ts:g} s: expected the env's sample time")
+    n = run.n_samples
+    vr = np.gradient(run.x_ref, run.ts)
+    ar = np.gradient(vr, run.ts)
+    ref = Reference(t=np.arange(n) * run.ts, x=np.asarray(run.x_ref, dtype=float), v=vr, a=ar,
+                    name="csv", params={"file": str(args.reference_csv)})
+    return ref, (np.asarray(run.x, dtype=float) if args.position else None)
 
 
 def _cmd_perf(args: argparse.Namespace) -> int:
@@ -328,9 +375,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env", default="fricbench/PaperAxis-v0",
                    help=f"environment id, one of: {', '.join(env_ids())} "
                         "(default: %(default)s)")
-    p.add_argument("--trajectory", default="m_serial",
+    p.add_argument("--trajectory", default=None,
                    help=f"trajectory id, one of: {', '.join(trajectory_registry.ids())} "
-                        "(circle needs a 2-axis env; default: %(default)s)")
+                        "(circle needs a 2-axis env; default: m_serial)")
+    p.add_argument("--reference-csv", metavar="RUN.csv",
+                   help="replay the reference of a logged run instead of a trajectory (m, at "
+                        "the env's sample time): to check a twin against its measurement")
+    p.add_argument("--time", default=None, metavar="COL",
+                   help="with --reference-csv: time column, s (default: t)")
+    p.add_argument("--reference", default=None, metavar="COL",
+                   help="with --reference-csv: reference position column, m (default: x_ref)")
+    p.add_argument("--position", default=None, metavar="COL",
+                   help="with --reference-csv: the measured position column, m: the replay "
+                        "starts there and prints its error against it")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the measurement noise, where the env has any "
                         "(default: %(default)s)")

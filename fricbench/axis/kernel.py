@@ -22,11 +22,13 @@ An axis whose controller is an identified linear law (``ControllerParams.law = "
 ``P_LAW = 1``: the digital twin a diagnosis writes) replaces steps 2 and 3 by that law in its
 reference form::
 
-    u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_j c_j x_fb[k-j]
+    u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_m g_m x_r[k-m]
+           + sum_j c_j x_fb[k-j]
     i = sat(u[k]) + u_comp / Kt
 
-the same law :mod:`fricbench.axis.linear_law` runs for the diagnosis, with its reference taps
-folded into position, velocity and acceleration gains.
+the same law :mod:`fricbench.axis.linear_law` runs for the diagnosis; its taps on the past
+reference are kept as they are, those on the future reference (a planned trajectory's look-ahead)
+are folded into the gains on the present position, velocity and acceleration.
 """
 
 from __future__ import annotations
@@ -59,24 +61,32 @@ P_BACKLASH, P_TH_AMP, P_TH_TAU, P_QUANT, P_NOISE, P_MEAS_TABLE = (
     PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.QUANT, PL.NOISE, PL.MEAS_TABLE)
 P_KP, P_KVFF, P_KAFF, P_KV, P_TI = range(N_PLANT, N_PLANT + 5)
 # the identified linear law that replaces the cascade when P_LAW is 1:
-# u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_j c_j y_fb[k-j]
+# u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_m g_m x_r[k-m]
+#        + sum_j c_j y_fb[k-j]
 LAW_NA_MAX = 4
 """Most recursion coefficients ``a_1 .. a_na`` of a linear law."""
 LAW_NC_MAX = 8
 """Most position coefficients ``c_0 .. c_(nc-1)`` of a linear law."""
-P_LAW, P_LAW_NA, P_LAW_NC, P_LAW_KX, P_LAW_KV, P_LAW_KA = range(N_PLANT + 5, N_PLANT + 11)
-P_LAW_A = N_PLANT + 11
+LAW_NR_MAX = 8
+"""Most coefficients ``g_1 .. g_nr`` of a linear law on the past reference."""
+(P_LAW, P_LAW_NA, P_LAW_NC, P_LAW_NR, P_LAW_KX, P_LAW_KV,
+ P_LAW_KA) = range(N_PLANT + 5, N_PLANT + 12)
+P_LAW_A = N_PLANT + 12
 P_LAW_C = P_LAW_A + LAW_NA_MAX
-N_PARAMS = P_LAW_C + LAW_NC_MAX
+P_LAW_G = P_LAW_C + LAW_NC_MAX
+N_PARAMS = P_LAW_G + LAW_NR_MAX
 
 # -- state vector layout (columns of S): the plant's state, then the cascade's ---------------------
 S_X, S_V, S_XPLAY, S_Z = PL.S_X, PL.S_V, PL.S_XPLAY, PL.S_Z
 S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(4, 11)
 S_DBUF = 11
 # the linear law's histories: u[k-1] .. u[k-na] and y_fb[k-1] .. y_fb[k-nc+1]
+# and x_r[k-1] .. x_r[k-nr], filled at the first sample (S_LAW_READY = 0 until then)
 S_LAW_U = S_DBUF + DELAY_MAX
 S_LAW_Y = S_LAW_U + LAW_NA_MAX
-N_STATE = S_LAW_Y + LAW_NC_MAX
+S_LAW_R = S_LAW_Y + LAW_NC_MAX
+S_LAW_READY = S_LAW_R + LAW_NR_MAX
+N_STATE = S_LAW_READY + 1
 
 # -- status codes ---------------------------------------------------------------------------------
 STATUS_OK = 0
@@ -119,7 +129,7 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
     x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
     law = p[P_LAW] > 0.5
-    na, nc = int(p[P_LAW_NA]), int(p[P_LAW_NC])
+    na, nc, nr = int(p[P_LAW_NA]), int(p[P_LAW_NC]), int(p[P_LAW_NR])
     for k in range(n_samples):
         x_true[n, k] = x_play
         x_meas[n, k] = x_logged
@@ -129,10 +139,19 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
         v_off = (off - off_prev) / ts
         off_prev = off
         if law:
-            # u = sum_i a_i u[k-i] + k_x (x_r + off) + k_v (v_r + v_off) + k_a a_r
+            x_ref = xr[n, k] + off
+            v_ref = vr[n, k] + v_off
+            if s[S_LAW_READY] == 0.0:
+                # the reference before the first sample: extended at constant velocity
+                for m in range(nr):
+                    s[S_LAW_R + m] = x_ref - (m + 1) * ts * v_ref
+                s[S_LAW_READY] = 1.0
+            # u = sum_i a_i u[k-i] + k_x x_r + k_v v_r + k_a a_r + sum_m g_m x_r[k-m]
             #     + sum_j c_j y_fb[k-j]
-            u_law = (p[P_LAW_KX] * (xr[n, k] + off) + p[P_LAW_KV] * (vr[n, k] + v_off)
-                     + p[P_LAW_KA] * ar[n, k] + p[P_LAW_C] * x_fb)
+            u_law = (p[P_LAW_KX] * x_ref + p[P_LAW_KV] * v_ref + p[P_LAW_KA] * ar[n, k]
+                     + p[P_LAW_C] * x_fb)
+            for m in range(nr):
+                u_law += p[P_LAW_G + m] * s[S_LAW_R + m]
             for i in range(na):
                 u_law += p[P_LAW_A + i] * s[S_LAW_U + i]
             for j in range(1, nc):
@@ -146,6 +165,9 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
             for j in range(nc - 2, 0, -1):
                 s[S_LAW_Y + j] = s[S_LAW_Y + j - 1]
             s[S_LAW_Y] = x_fb
+            for m in range(nr - 1, 0, -1):
+                s[S_LAW_R + m] = s[S_LAW_R + m - 1]
+            s[S_LAW_R] = x_ref
             i_cmd = u_law + u_force[n, k] / kt
             i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
         else:
@@ -277,6 +299,7 @@ __all__ = [
     "KIND_STATIC",
     "LAW_NA_MAX",
     "LAW_NC_MAX",
+    "LAW_NR_MAX",
     "N_PARAMS",
     "N_STATE",
     "STATUS_NONFINITE",

@@ -123,17 +123,19 @@ def _controller(c: ControllerParams, m: MechanicsParams) -> control.StateSpace:
 
 def _law_controller(c: ControllerParams) -> control.StateSpace:
     """The identified linear law (``law="linear"``) as the controller block of
-    :func:`controller`: ``F = kt u_law + u`` with
-    ``u_law = sum_i a_i u_law[k-i] + k_x x_ref + k_v v_ref + k_a a_ref + sum_j c_j x[k-j]``;
-    states ``x[k-1] .. x[k-nc+1]`` then ``u_law[k-1] .. u_law[k-na]``."""
-    a, cpos, kref = (np.asarray(v, dtype=float) for v in
-                     (c.law_recursion, c.law_position, c.law_reference))
-    ny, nu = cpos.shape[0] - 1, a.shape[0]
-    n = max(ny + nu, 1)  # a static law keeps one inert state (python-control wants one)
+    :func:`controller`: ``F = kt u_law + u`` with ``u_law = sum_i a_i u_law[k-i] + k_x x_ref
+    + k_v v_ref + k_a a_ref + sum_m g_m x_ref[k-m] + sum_j c_j x[k-j]``; states
+    ``x[k-1] .. x[k-nc+1]``, ``u[k-1] .. u[k-na]``, then ``x_ref[k-1] .. x_ref[k-nr]``."""
+    a, cpos, kref, g_hist = (np.asarray(v, dtype=float) for v in
+                             (c.law_recursion, c.law_position, c.law_reference,
+                              c.law_reference_history))
+    ny, nu, nr = cpos.shape[0] - 1, a.shape[0], g_hist.shape[0]
+    n = max(ny + nu + nr, 1)  # a static law keeps one inert state (python-control wants one)
     # output row: u_law = h' s + g' [x_ref, v_ref, a_ref, u, x]
     h = np.zeros(n)
     h[:ny] = cpos[1:]
     h[ny:ny + nu] = a
+    h[ny + nu:ny + nu + nr] = g_hist
     g = np.array([kref[0], kref[1], kref[2], 0.0, cpos[0]])
     am, bm = np.zeros((n, n)), np.zeros((n, 5))
     if ny:
@@ -143,9 +145,15 @@ def _law_controller(c: ControllerParams) -> control.StateSpace:
         am[ny, :] = h  # u[k-1]+ = u_law[k]
         bm[ny, :] = g
         am[ny + 1:ny + nu, ny:ny + nu - 1] = np.eye(nu - 1)
-    states = [f"x[k-{j}]" for j in range(1, ny + 1)] + [f"u[k-{i}]" for i in range(1, nu + 1)]
-    return control.ss(am, bm, c.kt * h[None, :], (c.kt * g + np.array([0, 0, 0, 1.0, 0]))[None, :],
-                      c.ts, inputs=["x_ref", "v_ref", "a_ref", "u", "x"], outputs=["F"],
+    if nr:
+        r0 = ny + nu
+        bm[r0, 0] = 1.0  # x_ref[k-1]+ = x_ref[k]
+        am[r0 + 1:r0 + nr, r0:r0 + nr - 1] = np.eye(nr - 1)
+    states = ([f"x[k-{j}]" for j in range(1, ny + 1)] + [f"u[k-{i}]" for i in range(1, nu + 1)]
+              + [f"x_ref[k-{m}]" for m in range(1, nr + 1)])
+    d = c.kt * g + np.array([0.0, 0.0, 0.0, 1.0, 0.0])
+    return control.ss(am, bm, c.kt * h[None, :], d[None, :], c.ts,
+                      inputs=["x_ref", "v_ref", "a_ref", "u", "x"], outputs=["F"],
                       states=states or ["inert"], name="controller")
 
 

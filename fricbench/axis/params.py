@@ -55,7 +55,8 @@ class ControllerParams:
         The controller: the cascade above, or an identified linear discrete law (the digital
         twin of a measured axis, written by ``fricbench diagnose --env-out``) that replaces
         ``kp, kvff, kaff, kv, ti``:
-        ``i[k] = sum_i a_i i[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_j c_j x[k-j]``.
+        ``i[k] = sum_i a_i i[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k]
+        + sum_m g_m x_r[k-m] + sum_j c_j x[k-j]``.
     law_reference : tuple of float
         ``(k_x, k_v, k_a)``: the law's gains on the reference position (A/m), velocity
         (A s/m) and acceleration (A s^2/m).
@@ -65,6 +66,9 @@ class ControllerParams:
     law_recursion : tuple of float
         ``a_1 .. a_na``: its gains on its own past outputs (``a_1 = 1``: an integrator; at most
         :data:`~fricbench.axis.kernel.LAW_NA_MAX`).
+    law_reference_history : tuple of float
+        ``g_1 .. g_nr``: its gains on the past reference ``x_r[k-1] .. x_r[k-nr]``, A/m (at most
+        :data:`~fricbench.axis.kernel.LAW_NR_MAX`).
     """
 
     ts: float = 1.0e-3
@@ -80,6 +84,7 @@ class ControllerParams:
     law_reference: tuple[float, ...] = ()
     law_position: tuple[float, ...] = ()
     law_recursion: tuple[float, ...] = ()
+    law_reference_history: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         check_range("ts", self.ts, 1e-5, 0.1, "s")
@@ -93,7 +98,8 @@ class ControllerParams:
         check_positive("i_max", self.i_max, "A")
         check_choice("law", self.law, ("cascade", "linear"))
         sizes = {"law_reference": (3, 3), "law_position": (1, K.LAW_NC_MAX),
-                 "law_recursion": (0, K.LAW_NA_MAX)}
+                 "law_recursion": (0, K.LAW_NA_MAX),
+                 "law_reference_history": (0, K.LAW_NR_MAX)}
         for name, (lo, hi) in sizes.items():
             value = getattr(self, name)
             if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
@@ -349,9 +355,11 @@ class Axis:
             p[K.P_LAW] = 1.0
             p[K.P_LAW_NA] = len(c.law_recursion)
             p[K.P_LAW_NC] = len(c.law_position)
+            p[K.P_LAW_NR] = len(c.law_reference_history)
             p[K.P_LAW_KX], p[K.P_LAW_KV], p[K.P_LAW_KA] = c.law_reference
             p[K.P_LAW_A:K.P_LAW_A + len(c.law_recursion)] = c.law_recursion
             p[K.P_LAW_C:K.P_LAW_C + len(c.law_position)] = c.law_position
+            p[K.P_LAW_G:K.P_LAW_G + len(c.law_reference_history)] = c.law_reference_history
         p[K.P_FLOAD] = m.load
         p[K.P_FKIND] = f["kind"]
         p[K.P_FC] = f["fc"]

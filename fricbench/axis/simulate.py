@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -117,6 +118,7 @@ def simulate(
     seed: int | None = 0,
     u_force: np.ndarray | None = None,
     u_offset: np.ndarray | None = None,
+    x0: float | None = None,
 ) -> SimulationResult:
     """Simulate the axis (or one axis per coordinate) on ``reference``.
 
@@ -133,6 +135,9 @@ def simulate(
         Compensation force added at the velocity-loop output, N, shape (K,) or (D, K).
     u_offset : ndarray, optional
         Reference offset (pre-compensation), m, shape (K,) or (D, K).
+    x0 : float, optional
+        Initial position, m (default: the reference's first sample, plus the offset's); the
+        initial velocity is the reference's.
 
     Returns
     -------
@@ -160,8 +165,12 @@ def simulate(
         noise = rng.standard_normal((d, k + 1))
     else:
         noise = np.zeros((d, k + 1))
-    x0 = xr[:, 0] + (0.0 if uo is None else uo[:, 0])
-    batch.reset(x0, vr[:, 0], noise[:, 0])
+    start = xr[:, 0] + (0.0 if uo is None else uo[:, 0])
+    if x0 is not None:
+        if not (isinstance(x0, (int, float, np.floating)) and math.isfinite(x0)):
+            raise ValueError(f"x0={x0!r}: expected a finite position, m")
+        start = np.full(d, float(x0))
+    batch.reset(start, vr[:, 0], noise[:, 0])
     x_true, x_meas, force, fric = batch.run(xr, vr, ar, uf, uo,
                                             np.ascontiguousarray(noise[:, 1:]))
     i_noise = np.array([a.effects.current_noise_std for a in axes])

@@ -42,7 +42,7 @@ def test_law_without_friction_matches_python_control() -> None:
     axis = Axis.from_dict({
         "controller": {"ts": TS, "n_substeps": 1, "kt": 35.0, "i_max": 1e6, "law": "linear",
                        "law_reference": [KV * KP, 5.0, 0.5], "law_position": C,
-                       "law_recursion": [0.3]},
+                       "law_recursion": [0.3], "law_reference_history": [2.0, -1.0]},
         "mechanics": {"mass": 95.0, "damping": 200.0}}).without_friction()
     ref = make_trajectory("s_curve", ts=TS)
     res = simulate(axis, ref)
@@ -54,6 +54,8 @@ def test_law_without_friction_matches_python_control() -> None:
     for j in range(1, 3):
         x0[sys.find_state(f"controller_x[k-{j}]")] = ref.x[0] - j * TS * ref.v[0]
     x0[sys.find_state("v")] = ref.v[0]
+    for m in range(1, 3):
+        x0[sys.find_state(f"controller_x_ref[k-{m}]")] = ref.x[0] - m * TS * ref.v[0]
     lin = control.forced_response(sys, T=ref.t, U=u, X0=x0).outputs
     # the kernel's trapezoidal position vs the exact ZOH sample: one substep of 1 ms
     assert np.max(np.abs(res.x - lin)) < 1e-3 * np.max(np.abs(ref.x))

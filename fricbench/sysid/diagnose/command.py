@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -84,6 +85,23 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     ol.add_argument("--init-samples", type=int, default=20, metavar="N",
                     help="open loop: samples of each free run used for its initial state "
                          "(default: 20)")
+    twin = parser.add_argument_group(
+        "twin", "write the identified model as a Gymnasium env spec (closed loop only)")
+    twin.add_argument("--env-out", metavar="FILE.toml",
+                      help="write the twin's env spec here (put its folder on "
+                           "FRICBENCH_ENV_PATH, then gym.make(ID) or fricbench bench --envs ID)")
+    twin.add_argument("--env-id", metavar="ID",
+                      help="the twin's env id, fricbench/Name-vN (default: from the file name, "
+                           "twin.toml -> fricbench/Twin-v0)")
+    twin.add_argument("--effort-gain", type=float, default=None, metavar="N_PER_UNIT",
+                      help="newtons per unit of the effort (the drive's gain), to write the "
+                           "twin in SI; required when --effort-unit is not N")
+    twin.add_argument("--effort-limit", type=float, default=None, metavar="LIMIT",
+                      help="the drive's limit, in the effort's unit (default: the clip level "
+                           "seen in the run, else 10 x its largest effort)")
+    twin.add_argument("--env-mass", type=float, default=1.0, metavar="KG",
+                      help="a run without an effort is modelled per unit mass: the twin's "
+                           "moving mass, kg (default: 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     return parser
 
@@ -172,6 +190,10 @@ def run(args: argparse.Namespace) -> int:
         print("error: --open-loop and --no-effort: an open-loop run is driven by its effort "
               "column", file=sys.stderr)
         return EXIT_BAD_INPUT
+    problem = _check_twin_options(args)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     if open_loop and args.init_samples < 2:
         print(f"error: --init-samples {args.init_samples}: expected an integer >= 2",
               file=sys.stderr)
@@ -194,6 +216,12 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     for w in run_data.warnings + (other.warnings if other is not None else ()):
         print(f"warning: {w}", file=sys.stderr)
+    if (getattr(args, "env_out", None) and run_data.u is not None
+            and args.effort_unit != "N" and args.effort_gain is None):
+        print(f"error: --env-out {args.env_out}: the effort is in {args.effort_unit} "
+              f"(--effort-unit); give --effort-gain, the newtons per {args.effort_unit} of the "
+              "drive, to write the twin in SI", file=sys.stderr)
+        return EXIT_BAD_INPUT
     if open_loop:
         return _run_open_loop(args, run_data, other, log, t_start)
     try:
@@ -229,9 +257,84 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"error: cannot write the report: {exc}", file=sys.stderr)
         return EXIT_FAILED
+    if getattr(args, "env_out", None):
+        status = _write_twin(args, result)
+        if status != EXIT_OK:
+            return status
     _print_summary(report, run_data.n_samples, time.perf_counter() - t_start,
                    position_unit(args.position_unit),
                    frozenset(run_data.warnings + (other.warnings if other is not None else ())))
+    return EXIT_OK
+
+
+def _twin_id(args: argparse.Namespace) -> str:
+    """``--env-id``, or ``fricbench/<Stem>-v0`` from the ``--env-out`` file name."""
+    if args.env_id is not None:
+        return str(args.env_id)
+    stem = os.path.splitext(os.path.basename(args.env_out))[0]
+    name = "".join(w[:1].upper() + w[1:] for w in re.split(r"[^A-Za-z0-9]+", stem) if w)
+    return f"fricbench/{name or 'Twin'}-v0"
+
+
+def _check_twin_options(args: argparse.Namespace) -> str | None:
+    """The first problem with the twin options (``--env-out`` and its companions), or None."""
+    from fricbench.sysid.diagnose.twin import check_env_id
+
+    out = getattr(args, "env_out", None)
+    if out is None:
+        for name in ("env_id", "effort_gain", "effort_limit"):
+            if getattr(args, name, None) is not None:
+                return f"--{name.replace('_', '-')}: only with --env-out FILE.toml"
+        return None
+    if getattr(args, "open_loop", False):
+        return (f"--env-out {out} with --open-loop: an open-loop run identifies the plant but "
+                "no controller, and an env needs the loop closed; diagnose a closed-loop run of "
+                "the axis (time, reference, position, effort) to write its twin")
+    if not out.endswith(".toml"):
+        return f"--env-out {out}: expected a file name ending in .toml (an env spec)"
+    folder = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(folder):
+        return f"--env-out {out}: the directory {folder} does not exist"
+    try:
+        check_env_id(_twin_id(args))
+    except ValueError:
+        return (f"--env-id {_twin_id(args)}: expected 'fricbench/Name-vN' (letters, digits, "
+                "'_', '.', ':', '-' in the name, then a version such as -v0)")
+    for name, value in (("--effort-gain", args.effort_gain), ("--effort-limit",
+                                                              args.effort_limit),
+                        ("--env-mass", args.env_mass)):
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            return f"{name} {value:g}: expected a positive number"
+    return None
+
+
+def _write_twin(args: argparse.Namespace, result: object) -> int:
+    """Write ``--env-out`` from a closed-loop diagnosis and check that it loads."""
+    from fricbench.gym.specs import EnvSpecError, load_spec
+    from fricbench.sysid.diagnose.twin import TwinError, twin_spec, write_twin
+
+    env_id = _twin_id(args)
+    try:
+        spec, comments = twin_spec(result, env_id, effort_gain=args.effort_gain,
+                                   mass=args.env_mass, effort_limit=args.effort_limit)
+    except (TwinError, ValueError) as exc:
+        print(f"error: --env-out {args.env_out}: no twin written: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    try:
+        write_twin(args.env_out, spec, comments)
+    except OSError as exc:
+        print(f"error: --env-out {args.env_out}: cannot write: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    try:
+        load_spec(args.env_out)
+    except EnvSpecError as exc:
+        os.remove(args.env_out)
+        print(f"error: --env-out {args.env_out}: the written spec does not load ({exc}); "
+              "removed", file=sys.stderr)
+        return EXIT_FAILED
+    folder = os.path.dirname(os.path.abspath(args.env_out))
+    print(f"wrote {args.env_out}: env {env_id} (put {folder} on FRICBENCH_ENV_PATH to "
+          "gym.make it)")
     return EXIT_OK
 
 
