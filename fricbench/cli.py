@@ -126,8 +126,15 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.polar and ref.name != "circle":
         raise ValueError(f"--polar {args.polar}: the ballbar plot is drawn for the circle "
                          f"trajectory, not {args.trajectory!r} (use --trajectory circle)")
-    res = simulate(axis, ref, seed=args.seed,
-                   x0=None if measured is None else float(measured[0]))
+    start: dict[str, float] = {}
+    if measured is not None:
+        # the run's own start: its first position, and the slope of a quadratic through its
+        # first 10 samples (the reference's velocity may differ: a lagging axis)
+        n0 = min(10, measured.shape[0])
+        tt = np.arange(n0) * axis.controller.ts
+        slope = np.polyfit(tt, measured[:n0], min(2, n0 - 1))[-2] if n0 > 1 else 0.0
+        start = {"x0": float(measured[0]), "v0": float(slope)}
+    res = simulate(axis, ref, seed=args.seed, **start)
     if args.csv:
         cols = write_csv(res, args.csv)
         print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (s, m, m, N)")
@@ -148,6 +155,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+REPLAY_TS_TOLERANCE = 1.0e-3
+"""Relative difference between a replayed log's sample time and the env's that is accepted."""
+
+
 def _reference_from_csv(args: argparse.Namespace, ts: float) -> tuple[Any, Any]:
     """The reference of ``--reference-csv`` (velocity and acceleration by central
     differences, as the diagnosis takes them) and the measured position when ``--position``
@@ -163,13 +174,15 @@ def _reference_from_csv(args: argparse.Namespace, ts: float) -> tuple[Any, Any]:
                        position=args.position or args.reference or "x_ref", effort=None)
     except DataError as exc:
         raise ValueError(str(exc)) from None
-    if abs(run.ts - ts) > 1e-6 * ts:
+    if abs(run.ts - ts) > REPLAY_TS_TOLERANCE * ts:
         raise ValueError(f"--reference-csv {args.reference_csv}: sampled every {run.ts:g} s but "
-                         f"{args.env} runs at ts={ts:g} s: expected the env's sample time")
+                         f"{args.env} runs at ts={ts:g} s: expected the env's sample time "
+                         f"(within {REPLAY_TS_TOLERANCE:.0e} of it)")
+    # sample k is replayed at k ts (a log's clock jitter is not the reference's)
     n = run.n_samples
-    vr = np.gradient(run.x_ref, run.ts)
-    ar = np.gradient(vr, run.ts)
-    ref = Reference(t=np.arange(n) * run.ts, x=np.asarray(run.x_ref, dtype=float), v=vr, a=ar,
+    vr = np.gradient(run.x_ref, ts)
+    ar = np.gradient(vr, ts)
+    ref = Reference(t=np.arange(n) * ts, x=np.asarray(run.x_ref, dtype=float), v=vr, a=ar,
                     name="csv", params={"file": str(args.reference_csv)})
     return ref, (np.asarray(run.x, dtype=float) if args.position else None)
 

@@ -119,6 +119,7 @@ def simulate(
     u_force: np.ndarray | None = None,
     u_offset: np.ndarray | None = None,
     x0: float | None = None,
+    v0: float | None = None,
 ) -> SimulationResult:
     """Simulate the axis (or one axis per coordinate) on ``reference``.
 
@@ -135,9 +136,9 @@ def simulate(
         Compensation force added at the velocity-loop output, N, shape (K,) or (D, K).
     u_offset : ndarray, optional
         Reference offset (pre-compensation), m, shape (K,) or (D, K).
-    x0 : float, optional
-        Initial position, m (default: the reference's first sample, plus the offset's); the
-        initial velocity is the reference's.
+    x0, v0 : float, optional
+        Initial position (m) and velocity (m/s) of every coordinate (default: the reference's
+        first sample, plus the offset's, and the reference's velocity).
 
     Returns
     -------
@@ -166,11 +167,16 @@ def simulate(
     else:
         noise = np.zeros((d, k + 1))
     start = xr[:, 0] + (0.0 if uo is None else uo[:, 0])
+    speed = vr[:, 0]
+    for name, value in (("x0", x0), ("v0", v0)):
+        if value is not None and not (isinstance(value, (int, float, np.floating))
+                                      and math.isfinite(value)):
+            raise ValueError(f"{name}={value!r}: expected a finite number (m, m/s)")
     if x0 is not None:
-        if not (isinstance(x0, (int, float, np.floating)) and math.isfinite(x0)):
-            raise ValueError(f"x0={x0!r}: expected a finite position, m")
         start = np.full(d, float(x0))
-    batch.reset(start, vr[:, 0], noise[:, 0])
+    if v0 is not None:
+        speed = np.full(d, float(v0))
+    batch.reset(start, speed, noise[:, 0])
     x_true, x_meas, force, fric = batch.run(xr, vr, ar, uf, uo,
                                             np.ascontiguousarray(noise[:, 1:]))
     i_noise = np.array([a.effects.current_noise_std for a in axes])

@@ -135,7 +135,7 @@ def _fold_reference(law: ArxController, ts: float) -> tuple[list[float], list[fl
 
 def _controller(ctrl: ArxController | CascadeController, *, ts: float, n_sub: int,
                 gain: float, mass_si: float, i_max: float) -> dict[str, Any]:
-    base: dict[str, Any] = {"ts": float(f"{ts:.12g}"), "n_substeps": n_sub, "i_max": i_max}
+    base: dict[str, Any] = {"ts": _sample_time(ts), "n_substeps": n_sub, "i_max": i_max}
     if isinstance(ctrl, ArxController):
         ref, past = _fold_reference(ctrl, ts)
         if (ctrl.a.shape[0] > K.LAW_NA_MAX or ctrl.c.shape[0] > K.LAW_NC_MAX
@@ -151,6 +151,13 @@ def _controller(ctrl: ArxController | CascadeController, *, ts: float, n_sub: in
     # u = wv (e_v + I) per unit mass: the env's i = kv (e_v + I) with kt = 1 N/A
     return {**base, "kt": 1.0, "kp": ctrl.kp, "kvff": ctrl.kvff, "kaff": ctrl.kaff,
             "kv": ctrl.wv * mass_si, "ti": (1.0 / ctrl.ki) if ctrl.ki > 0 else 0.0}
+
+
+def _sample_time(ts: float) -> float:
+    """The run's mean sample time, snapped to 3 digits when within 1e-4 of them (a logger's
+    clock jitter: EMPS's 0.000999984 s is its 1 ms)."""
+    snapped = float(f"{ts:.3g}")
+    return snapped if abs(snapped - ts) <= 1e-4 * ts else float(f"{ts:.12g}")
 
 
 def _axis_tables(p: np.ndarray, gain: float) -> dict[str, dict[str, Any]]:
@@ -303,8 +310,10 @@ def twin_spec(result: Any, env_id: str, *, effort_gain: float | None = None,
         "forces, and a controller other than the run's.")
     pos = result.train.position()
     comments = [
-        f"Digital twin written by 'fricbench diagnose --env-out' from {result.run.source}",
-        f"({result.run.n_samples} samples at {prep.ts:g} s).",
+        "Digital twin written by 'fricbench diagnose --env-out' from "
+        f"{os.path.basename(result.run.source)}",
+        f"({result.run.n_samples} samples, mean step {prep.ts:.9g} s; controller.ts "
+        f"{_sample_time(prep.ts):g} s).",
         f"Units: SI inside (m, s, kg, N); {unit_note}.",
         f"Controller: {result.laws.get('train', '')}"
         + (" (law = 'linear': its look-ahead reference taps folded into gains on x_r, v_r, a_r)"
