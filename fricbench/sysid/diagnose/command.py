@@ -14,6 +14,7 @@ import argparse
 import math
 import os
 import re
+import shlex
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -93,6 +94,9 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     twin.add_argument("--env-id", metavar="ID",
                       help="the twin's env id, fricbench/Name-vN (default: from the file name, "
                            "twin.toml -> fricbench/Twin-v0)")
+    twin.add_argument("--env-description", metavar="TEXT",
+                      help="the twin's description (default: the run it comes from, the effects "
+                           "found and what it does not model)")
     twin.add_argument("--effort-gain", type=float, default=None, metavar="N_PER_UNIT",
                       help="newtons per unit of the effort (the drive's gain), to write the "
                            "twin in SI; required when --effort-unit is not N")
@@ -282,7 +286,7 @@ def _check_twin_options(args: argparse.Namespace) -> str | None:
 
     out = getattr(args, "env_out", None)
     if out is None:
-        for name in ("env_id", "effort_gain", "effort_limit"):
+        for name in ("env_id", "env_description", "effort_gain", "effort_limit"):
             if getattr(args, name, None) is not None:
                 return f"--{name.replace('_', '-')}: only with --env-out FILE.toml"
         return None
@@ -316,10 +320,14 @@ def _write_twin(args: argparse.Namespace, result: object) -> int:
     env_id = _twin_id(args)
     try:
         spec, comments = twin_spec(result, env_id, effort_gain=args.effort_gain,
-                                   mass=args.env_mass, effort_limit=args.effort_limit)
+                                   mass=args.env_mass, effort_limit=args.effort_limit,
+                                   description=args.env_description)
     except (TwinError, ValueError) as exc:
         print(f"error: --env-out {args.env_out}: no twin written: {exc}", file=sys.stderr)
         return EXIT_FAILED
+    comments.insert(2, "Command: fricbench " + " ".join(
+        shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:2] == ["diagnose"] else
+        "Command: fricbench diagnose ... --env-out")
     try:
         write_twin(args.env_out, spec, comments)
     except OSError as exc:
