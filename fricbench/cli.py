@@ -126,15 +126,15 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.polar and ref.name != "circle":
         raise ValueError(f"--polar {args.polar}: the ballbar plot is drawn for the circle "
                          f"trajectory, not {args.trajectory!r} (use --trajectory circle)")
-    start: dict[str, float] = {}
+    x0 = v0 = None
     if measured is not None:
         # the run's own start: its first position, and the slope of a quadratic through its
         # first 10 samples (the reference's velocity may differ: a lagging axis)
         n0 = min(10, measured.shape[0])
         tt = np.arange(n0) * axis.controller.ts
         slope = np.polyfit(tt, measured[:n0], min(2, n0 - 1))[-2] if n0 > 1 else 0.0
-        start = {"x0": float(measured[0]), "v0": float(slope)}
-    res = simulate(axis, ref, seed=args.seed, **start)
+        x0, v0 = float(measured[0]), float(slope)
+    res = simulate(axis, ref, seed=args.seed, x0=x0, v0=v0)
     if args.csv:
         cols = write_csv(res, args.csv)
         print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (s, m, m, N)")
@@ -168,10 +168,14 @@ def _reference_from_csv(args: argparse.Namespace, ts: float) -> tuple[Any, Any]:
     from fricbench.sysid.io import DataError, load_run
     from fricbench.trajectories import Reference
 
+    ref_col = args.reference or "x_ref"
     try:
-        run = load_run(args.reference_csv, time=args.time or "t",
-                       reference=args.reference or "x_ref",
-                       position=args.position or args.reference or "x_ref", effort=None)
+        if args.position:
+            run = load_run(args.reference_csv, time=args.time or "t", reference=ref_col,
+                           position=args.position, effort=None)
+        else:  # the reference alone, read as a run without one (its x_ref is the column)
+            run = load_run(args.reference_csv, time=args.time or "t", reference=None,
+                           position=ref_col, effort=None)
     except DataError as exc:
         raise ValueError(str(exc)) from None
     if abs(run.ts - ts) > REPLAY_TS_TOLERANCE * ts:
