@@ -168,3 +168,41 @@ def test_replay_refuses_another_sample_time(tmp_path: Path,
 def test_replay_options_need_a_reference_csv(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli_main(["simulate", "--position", "x"]) == 2
     assert "--position x: only with --reference-csv" in capsys.readouterr().err
+
+
+def test_a_run_without_effort_gives_a_cascade_twin(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """No effort: the model is per unit mass with a fitted cascade; the twin gets --env-mass
+    and the env's cascade. Its replay adds the encoder step the diagnosis's free run leaves
+    out, so the bound holds the quantisation noise q / sqrt(12) beside the 20 %."""
+    axis = get_spec("fricbench/PaperAxis-v0").axis
+    run = tmp_path / "run.csv"
+    write_csv(simulate(axis, make_trajectory("s_curve", ts=1e-3)), str(run))
+    out = tmp_path / "pos.toml"
+    assert diagnose_main([str(run), "--no-effort", "--json", str(tmp_path / "d.json"),
+                          "--env-out", str(out), "--env-mass", "400", "--quiet"]) == EXIT_OK
+    data = tomllib.loads(out.read_text())
+    ctrl = data["axis"]["controller"]
+    assert ctrl.get("law", "cascade") == "cascade" and ctrl["kp"] > 0 and ctrl["kv"] > 0
+    assert data["axis"]["mechanics"]["mass"] == 400.0 and data["id"] == "fricbench/Pos-v0"
+    monkeypatch.setattr(specs, "_SPECS", dict(specs._SPECS))
+    monkeypatch.setattr(specs, "_SEEN", set(specs._SEEN))
+    monkeypatch.setenv("FRICBENCH_ENV_PATH", str(tmp_path))
+    before = set(gym.registry)
+    try:
+        register_envs()
+        replay = tmp_path / "replay.csv"
+        assert cli_main(["simulate", "--env", "fricbench/Pos-v0", "--reference-csv", str(run),
+                         "--position", "x", "--csv", str(replay)]) == 0
+    finally:
+        for env_id in set(gym.registry) - before:
+            del gym.registry[env_id]
+    with open(run) as fh:
+        measured = np.array([float(r["x"]) for r in csv.DictReader(fh)])
+    with open(replay) as fh:
+        sim = np.array([float(r["x"]) for r in csv.DictReader(fh)])
+    rms = float(np.sqrt(np.mean((sim - measured) ** 2)))
+    pos = json.loads((tmp_path / "d.json").read_text())["position"]
+    q = axis.effects.quantization
+    assert rms <= 1.2 * float(np.hypot(pos["rms_after"], q / np.sqrt(12.0))), (rms, pos)
+    assert rms < 0.5 * pos["rms_before"], (rms, pos)
