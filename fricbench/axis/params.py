@@ -157,8 +157,8 @@ class Effects:
         Phase of the ripple, rad.
     friction_gradient : float
         Linear change of the friction levels along the stroke, 1/m
-        (``1 + grad (x - friction_center)``).
-    friction_center : float
+        (``1 + grad (x - friction_gradient_center)``).
+    friction_gradient_center : float
         Position where the gradient's factor is 1, m.
     coulomb_asymmetry : float
         Coulomb level moving forward minus moving backward, N (``fc +- asymmetry / 2``).
@@ -193,7 +193,7 @@ class Effects:
     cogging_period: float = 5.0e-3
     cogging_phase: float = 0.0
     friction_gradient: float = 0.0
-    friction_center: float = 0.0
+    friction_gradient_center: float = 0.0
     coulomb_asymmetry: float = 0.0
     viscous_asymmetry: float = 0.0
     friction_variation: float = 0.0
@@ -213,7 +213,7 @@ class Effects:
         check_positive("cogging_period", self.cogging_period, "m")
         check_finite("cogging_phase", self.cogging_phase)
         check_range("friction_gradient", self.friction_gradient, -1.0, 1.0, "1/m")
-        check_finite("friction_center", self.friction_center)
+        check_finite("friction_gradient_center", self.friction_gradient_center)
         check_finite("coulomb_asymmetry", self.coulomb_asymmetry)
         check_finite("viscous_asymmetry", self.viscous_asymmetry)
         check_range("friction_variation", self.friction_variation, 0.0, 0.9)
@@ -377,7 +377,7 @@ class Axis:
         p[K.P_COG_COS] = e.cogging_amplitude * math.sin(e.cogging_phase)
         p[K.P_COG_PERIOD] = e.cogging_period
         p[K.P_PD_GRAD] = e.friction_gradient
-        p[PL.PD_CENTER] = e.friction_center
+        p[PL.PD_CENTER] = e.friction_gradient_center
         p[K.P_DFC] = e.coulomb_asymmetry
         p[K.P_DB] = e.viscous_asymmetry
         p[K.P_PD_SIN] = e.friction_variation * math.cos(e.friction_variation_phase)

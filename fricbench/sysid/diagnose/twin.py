@@ -83,7 +83,7 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "pd_sin": ("effects", "friction_variation", ""),  # with pd_cos: amplitude and phase
     "pd_cos": ("effects", "friction_variation_phase", ""),
     "pd_period": ("effects", "friction_variation_period", ""),
-    "pd_center": ("effects", "friction_center", ""),
+    "pd_center": ("effects", "friction_gradient_center", ""),
     "backlash": ("effects", "backlash", ""),
     "thermal_amplitude": ("effects", "thermal_drift", ""),
     "thermal_tau": ("effects", "thermal_time_constant", ""),
