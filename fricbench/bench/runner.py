@@ -142,6 +142,15 @@ def bench_env(env_id: str, compensator: Compensator, seed: int | None = None,
     return ServoAxisEnv(axis=told, task=task, plant=plant)
 
 
+def _env_trajectory(env_id: str, trajectory: str) -> str | TrajectoryChoice:
+    """The env's own entry for trajectory id ``trajectory``, with the parameters its spec gives
+    it (a twin's ``m_serial`` at its machine's stroke and feed), else the bare id."""
+    for choice in get_spec(env_id).task.trajectories:
+        if choice.id == trajectory:
+            return choice
+    return trajectory
+
+
 def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = False,
                 reference: Reference | None = None, nominal: bool = False,
                 fast: bool = True) -> EpisodeRecord:
@@ -158,7 +167,8 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
     try:
         env = bench_env(task.env, compensator, task.seed, nominal)
         obs, _ = env.reset(seed=task.seed,
-                           options={"trajectory": reference or task.trajectory})
+                           options={"trajectory": reference or _env_trajectory(
+                               task.env, task.trajectory)})
         ref = env.reference
         assert ref is not None
         ctx = env.episode_context()
