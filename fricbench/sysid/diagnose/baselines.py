@@ -26,8 +26,8 @@ from fricbench.sysid.diagnose.models import (
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 
-__all__ = ["LinearTF", "fit_law", "law_relerr_floor", "LAW_PREFILTERS", "fit_linear_tf",
-           "fit_linear_cascade", "fit_linear_with_effort",
+__all__ = ["LinearTF", "fit_law", "fit_law_like", "law_relerr_floor", "LAW_PREFILTERS",
+           "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort",
            "force_scale", "starting_controllers", "friction_aware_loop"]
 
 
@@ -186,6 +186,26 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     if not np.any(np.isfinite(sse)):
         return laws[0]
     return laws[int(np.argmin(sse))]
+
+
+def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
+    """Another run's control law, fitted through the prefilter ``like`` was chosen with.
+
+    The prefilter is a matter of the log (how much noise its position carries beside the
+    controller's own feedback), not of the controller: a validation run of the same axis,
+    logged the same way, is fitted through the training run's choice, so that its position
+    never chooses its own law (and the injected test pulses of a validation run, which no
+    loop without them reproduces, cannot sway the choice).
+    """
+    if prep.u is None:
+        raise ValueError("fit_law_like: the run has no effort column")
+    inp = prep.inputs
+    exclude = prep.saturation.mask if prep.saturation is not None else None
+    f = like.prefilter_hz
+    if f is not None and not f < 0.5 / prep.ts:
+        f = None
+    return fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
+                              exclude=exclude, prefilter_hz=f)
 
 
 def law_relerr_floor(prep: Prepared) -> float:

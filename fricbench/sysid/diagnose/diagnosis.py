@@ -16,7 +16,7 @@ import numpy as np
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.baselines import (
     LinearTF,
-    fit_law,
+    fit_law_like,
     fit_linear_cascade,
     fit_linear_tf,
     fit_linear_with_effort,
@@ -466,8 +466,11 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         law_v = None
         if mode == "effort" and prep_v.u is not None:
             # the plant is what is validated; the loop is the validation run's own: its law
-            # (it may be another controller, or other gains) identified from its effort
-            law_v = fit_law(prep_v)
+            # (it may be another controller, or other gains) identified from its effort,
+            # through the prefilter the training run chose (a property of the log, not of the
+            # controller), so that the validation position never chooses its own law
+            assert isinstance(linear.controller, ArxController)
+            law_v = fit_law_like(prep_v, linear.controller)
             laws["validation"] = ("identified on the validation run "
                                   f"({law_v.relerr_pct:.2f} % relative error)")
         else:
