@@ -135,23 +135,23 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
         x_meas[n, k] = x_logged
         # -- controller ----------------------------------------------------------------
         off = u_off[n, k]
-        # the offset enters as a reference change, its rate as a reference velocity
-        v_off = (off - off_prev) / ts
-        off_prev = off
         if law:
+            # the offset enters as a reference change, its rate as a reference velocity
+            v_off = (off - off_prev) / ts
+            off_prev = off
             x_ref = xr[n, k] + off
             v_ref = vr[n, k] + v_off
             if s[S_LAW_READY] == 0.0:
                 # the reference before the first sample: extended at constant velocity
-                for m in range(nr):
-                    s[S_LAW_R + m] = x_ref - (m + 1) * ts * v_ref
+                for q in range(nr):
+                    s[S_LAW_R + q] = x_ref - (q + 1) * ts * v_ref
                 s[S_LAW_READY] = 1.0
             # u = sum_i a_i u[k-i] + k_x x_r + k_v v_r + k_a a_r + sum_m g_m x_r[k-m]
             #     + sum_j c_j y_fb[k-j]
             u_law = (p[P_LAW_KX] * x_ref + p[P_LAW_KV] * v_ref + p[P_LAW_KA] * ar[n, k]
                      + p[P_LAW_C] * x_fb)
-            for m in range(nr):
-                u_law += p[P_LAW_G + m] * s[S_LAW_R + m]
+            for q in range(nr):
+                u_law += p[P_LAW_G + q] * s[S_LAW_R + q]
             for i in range(na):
                 u_law += p[P_LAW_A + i] * s[S_LAW_U + i]
             for j in range(1, nc):
@@ -165,14 +165,16 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
             for j in range(nc - 2, 0, -1):
                 s[S_LAW_Y + j] = s[S_LAW_Y + j - 1]
             s[S_LAW_Y] = x_fb
-            for m in range(nr - 1, 0, -1):
-                s[S_LAW_R + m] = s[S_LAW_R + m - 1]
+            for q in range(nr - 1, 0, -1):
+                s[S_LAW_R + q] = s[S_LAW_R + q - 1]
             s[S_LAW_R] = x_ref
             i_cmd = u_law + u_force[n, k] / kt
             i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
         else:
-            # v_cmd = Kp (x_r - x_fb) + kvff v_r
-            v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + v_off)
+            # v_cmd = Kp (x_r - x_fb) + kvff v_r   (the offset's rate enters the feedforward);
+            # written as before the linear law existed: fast-math may reorder another form
+            v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + (off - off_prev) / ts)
+            off_prev = off
             e_v = v_cmd - (x_fb - x_fb_prev) / ts
             # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
             i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
