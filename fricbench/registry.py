@@ -1,4 +1,5 @@
-"""One small generic registry for friction models, trajectories, predictors and compensators.
+"""One small generic registry for friction models, trajectories, predictors, compensators,
+diagnosis effects and env specs.
 
 Modelled on Gymnasium's env registry: ids are versioned strings (``name-v0`` or plain names),
 entry points are ``"package.module:Attribute"`` strings imported lazily, re-registering an id is
@@ -86,6 +87,9 @@ class RegistryEntry:
     entry_point: str | Callable[..., Any]
     kwargs: dict[str, Any] = field(default_factory=dict)
     description: str = ""
+    data: Any = None
+    """What the id stands for beyond its factory, if a registry keeps it (an env's parsed
+    spec); ``None`` otherwise."""
 
     def load(self) -> Callable[..., Any]:
         """Return the factory (class or function), importing it if needed."""
@@ -121,13 +125,19 @@ class Registry(Generic[T]):
         *,
         kwargs: dict[str, Any] | None = None,
         description: str = "",
+        data: Any = None,
     ) -> None:
-        """Register ``id``; raises :class:`DuplicateIdError` if it exists already."""
+        """Register ``id``; raises :class:`DuplicateIdError` if it exists already.
+
+        ``data`` is kept on the entry (:attr:`RegistryEntry.data`) for registries whose ids
+        stand for more than a factory (an env id for its parsed spec).
+        """
         if not isinstance(id, str) or not id or id != id.strip():
             raise ValueError(f"id={id!r}: expected a non-empty string without surrounding spaces")
         if id in self._entries:
             raise DuplicateIdError(f"{self.kind} id {id!r} is already registered")
-        self._entries[id] = RegistryEntry(id, entry_point, dict(kwargs or {}), description)
+        self._entries[id] = RegistryEntry(id, entry_point, dict(kwargs or {}), description,
+                                          data)
 
     def unregister(self, id: str) -> None:
         """Remove ``id`` (used by tests and by plug-ins that replace their own entries)."""
@@ -178,13 +188,18 @@ class Registry(Generic[T]):
             return
         self._plugins_loaded = True
         for ep in importlib.metadata.entry_points(group=self.group):
-            obj = ep.load()
-            if hasattr(obj, "register") and not isinstance(obj, type):
-                obj.register(self)
-            elif callable(obj):
-                obj(self)
-            else:
-                raise TypeError(
-                    f"entry point {ep.name!r} in group {self.group!r} must be callable "
-                    f"(got {type(obj).__name__})"
-                )
+            self._load_plugin(ep)
+
+    def _load_plugin(self, ep: importlib.metadata.EntryPoint) -> None:
+        """Let the plug-in ``ep`` register its ids: it names a callable taking the registry,
+        or an object with ``register(registry)``."""
+        obj = ep.load()
+        if hasattr(obj, "register") and not isinstance(obj, type):
+            obj.register(self)
+        elif callable(obj):
+            obj(self)
+        else:
+            raise TypeError(
+                f"entry point {ep.name!r} in group {self.group!r} must be callable "
+                f"(got {type(obj).__name__})"
+            )
