@@ -55,14 +55,16 @@ def _registry_rows(registry: Registry[Any]) -> list[tuple[str, str, str]]:
 
 
 def _env_rows() -> list[tuple[str, str, str]]:
-    """``(id, source, description)`` of every env: ``fricbench`` or the user's spec file."""
-    from fricbench.gym import env_ids, get_spec
+    """``(id, source, description)`` of every env: ``fricbench`` or the spec's file (a user's
+    or a plug-in's)."""
+    from fricbench.gym import env_registry, register_envs
     from fricbench.gym.specs import _shipped_files
 
+    register_envs()  # the files added to FRICBENCH_ENV_PATH since the import
     shipped = {str(f) for f in _shipped_files()}
     rows = []
-    for i in env_ids():
-        spec = get_spec(i)
+    for i in env_registry.ids():
+        spec = env_registry.spec(i).data
         rows.append((i, "fricbench" if spec.path in shipped else spec.path, spec.description))
     return rows
 

@@ -10,7 +10,10 @@ Importing :mod:`fricbench` registers every spec under the ``fricbench/`` namespa
 Keywords of ``gym.make`` are merged onto the env's spec and checked as spec files are
 (:func:`make_env` lists them; :class:`EnvKeywordError` names each problem). A malformed spec
 on ``FRICBENCH_ENV_PATH`` is skipped with an :class:`EnvSpecWarning`; :func:`check_specs`
-(``fricbench list --check``) reports every problem. stable-baselines3 trains on the native
+(``fricbench list --check``) reports every problem. The ids and their parsed specs are on
+:data:`env_registry`, the project's shared :class:`~fricbench.registry.Registry`: a
+third-party package adds env specs through the entry-point group ``fricbench.envs``
+(:class:`EnvRegistry`). stable-baselines3 trains on the native
 vector env through :mod:`fricbench.gym.sb3` (not imported here: it imports stable-baselines3
 and torch).
 """
@@ -18,10 +21,13 @@ and torch).
 from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.specs import (
     EnvKeywordError,
+    EnvRegistry,
     EnvSpecError,
+    EnvSpecFile,
     EnvSpecWarning,
     check_specs,
     env_ids,
+    env_registry,
     get_spec,
     make_env,
     make_vector_env,
@@ -34,7 +40,9 @@ from fricbench.gym.vector import ServoAxisVectorEnv
 
 __all__ = [
            "EnvKeywordError",
+           "EnvRegistry",
            "EnvSpecError",
+           "EnvSpecFile",
            "EnvSpecWarning",
            "ObservationConfig",
            "Randomization",
@@ -44,6 +52,7 @@ __all__ = [
            "TaskConfig",
            "check_specs",
            "env_ids",
+           "env_registry",
            "get_spec",
            "make_env",
            "make_vector_env",

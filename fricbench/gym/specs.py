@@ -8,6 +8,21 @@ compensators learn from, default itself: a different id makes the env a generali
 reward, observation, randomize). Dropping a new TOML file into ``envs/`` (or a folder named by
 ``FRICBENCH_ENV_PATH``) adds an environment.
 
+The ids live on :data:`env_registry` (an :class:`EnvRegistry`, the project's shared
+:class:`~fricbench.registry.Registry`), each with its parsed spec; :func:`env_ids`,
+:func:`get_spec`, ``fricbench list``, ``fricbench bench`` and Gymnasium's registration read it.
+A third-party package adds env specs through the entry-point group ``fricbench.envs``: the
+entry point names a spec file's path, a parsed spec (:func:`load_spec`), or a callable that
+takes the registry::
+
+    # pyproject.toml of the package
+    [project.entry-points."fricbench.envs"]
+    mine = "my_pkg.envs:SPEC"            # SPEC = Path(__file__).with_name("mine.toml")
+    more = "my_pkg.envs:register"        # def register(registry): registry.register_spec(path)
+
+After ``import fricbench``, ``gym.make`` and ``fricbench bench --envs`` take its ids. A plug-in
+that fails, or a malformed spec it gives, is skipped with an :class:`EnvSpecWarning`.
+
 Every spec is validated when it is read, not at ``reset``: types, ids and sizes. Each problem
 names the file, the key, the value and what was expected; unknown keys and ids come with a
 "did you mean". A malformed spec is skipped with one :class:`EnvSpecWarning` and every other
@@ -31,6 +46,7 @@ Limits (module constants):
 from __future__ import annotations
 
 import copy
+import importlib.metadata
 import inspect
 import json
 import math
@@ -59,7 +75,7 @@ from fricbench.gym.task import (
     TrajectoryChoice,
     reference_for,
 )
-from fricbench.registry import UnknownIdError, did_you_mean
+from fricbench.registry import Registry, did_you_mean
 from fricbench.trajectories import trajectory_registry
 
 __all__ = [
@@ -69,11 +85,14 @@ __all__ = [
     "PROBE_TS",
     "OVERRIDE_KEYWORDS",
     "EnvKeywordError",
+    "EnvRegistry",
     "EnvSpecError",
     "EnvSpecFile",
     "EnvSpecWarning",
     "check_specs",
     "env_ids",
+    "env_registry",
+    "get_spec",
     "load_spec",
     "make_env",
     "make_vector_env",
@@ -90,9 +109,6 @@ MAX_REFERENCE_SAMPLES = 1_000_000
 """Most reference samples of a trajectory set (one episode on each, at the axis's ``ts``)."""
 PROBE_TS = 0.1
 """Sample time of the load-time dry run of the trajectory generators, s."""
-
-_SPECS: dict[str, EnvSpecFile] = {}
-_SEEN: set[str] = set()  # spec files already read by register_envs (registered or skipped)
 
 _TOP_KEYS = ("id", "description", "benchmark", "fit_on", "axis", "task")
 _AXIS_KEYS = ("controller", "mechanics", "friction", "effects")
@@ -610,31 +626,178 @@ def _load_all(paths: Iterable[Path], known: Mapping[str, EnvSpecFile],
     return list(good.values()), problems
 
 
+_ENTRY_POINT = "fricbench.gym.specs:make_env"
+_VECTOR_ENTRY_POINT = "fricbench.gym.specs:make_vector_env"
+
+
+class EnvRegistry(Registry[gym.Env]):
+    """The env ids, each registered with its parsed spec (:attr:`RegistryEntry.data`) and with
+    Gymnasium.
+
+    ``make(id, **overrides)`` is :func:`make_env`; :func:`get_spec` gives an id's
+    :class:`EnvSpecFile`. At the first look-up the registry reads the spec files (the shipped
+    ones, then those on ``FRICBENCH_ENV_PATH``), then the plug-ins of its entry-point group
+    (``fricbench.envs``); :func:`register_envs` reads the files added since.
+
+    A plug-in's entry point names a spec file (a path, as ``str`` or :class:`os.PathLike`), a
+    parsed :class:`EnvSpecFile`, or, like every registry's plug-ins, a callable taking the
+    registry (which calls :meth:`register_spec`). A plug-in that fails, or a malformed spec it
+    gives, is skipped with an :class:`EnvSpecWarning`, as a malformed spec file is: the import
+    of :mod:`fricbench` registers the envs and must not fail for one of them.
+
+    Parameters
+    ----------
+    kind : str
+        Human name of what is registered, used in messages.
+    group : str
+        Python entry-point group scanned once for plug-ins.
+    """
+
+    def __init__(self, kind: str = "env", group: str = "fricbench.envs") -> None:
+        super().__init__(kind, group)
+        self._files_read: set[str] = set()  # spec files already read (registered or skipped)
+
+    def register(self, id: str, entry_point: str | Callable[..., Any], *,
+                 kwargs: dict[str, Any] | None = None, description: str = "",
+                 data: Any = None) -> None:
+        """Register ``id`` with its parsed spec ``data`` (and with Gymnasium).
+
+        :meth:`register_spec` is the way to add an env; this method takes what it passes.
+
+        Raises
+        ------
+        TypeError
+            If ``data`` is not an :class:`EnvSpecFile` of ``id``.
+        EnvSpecError
+            If the spec's ``fit_on`` is not a registered env id.
+        DuplicateIdError
+            If ``id`` is registered already.
+        """
+        if not (isinstance(data, EnvSpecFile) and data.id == id):
+            raise TypeError(f"data={_show(data)}: expected the EnvSpecFile of {id!r}; add an "
+                            "env with register_spec(a spec file's path or an EnvSpecFile)")
+        if data.fit_on != id and data.fit_on not in self._entries:
+            raise EnvSpecError(data.path, [f"fit_on={data.fit_on!r}: not a registered env id"
+                                           f"{did_you_mean(data.fit_on, self._entries)}"])
+        super().register(id, entry_point, kwargs=kwargs, description=description, data=data)
+        single = all(t.id != "circle" for t in data.task.trajectories)
+        gym.register(id=id, entry_point=_ENTRY_POINT,
+                     vector_entry_point=_VECTOR_ENTRY_POINT if single else None,
+                     kwargs={"spec_id": id})
+
+    def register_spec(self, spec: str | os.PathLike[str] | EnvSpecFile) -> str:
+        """Register an env from a spec file or a parsed spec; return its id.
+
+        A spec file is read with every check of :func:`load_spec`; the trajectories of a
+        parsed spec are dry-run as a file's are. Registering the same file again does nothing.
+
+        Parameters
+        ----------
+        spec : str, os.PathLike or EnvSpecFile
+            A TOML spec file (the format of ``envs/``), or its :func:`load_spec`.
+
+        Returns
+        -------
+        str
+            The env id.
+
+        Raises
+        ------
+        EnvSpecError
+            Listing the problems of the spec: malformed, an id already defined by another
+            file, a ``fit_on`` that is not registered.
+        TypeError
+            If ``spec`` is neither a path nor an :class:`EnvSpecFile`.
+        """
+        if isinstance(spec, EnvSpecFile):
+            problems: list[str] = []
+            _probe_trajectories(spec.task, spec.axis, problems)
+            if problems:
+                raise EnvSpecError(spec.path, problems)
+        elif isinstance(spec, (str, os.PathLike)):
+            spec = load_spec(Path(spec))
+        else:
+            raise TypeError(f"spec={_show(spec)} ({type(spec).__name__}): expected a spec "
+                            "file's path or an EnvSpecFile")
+        other = self._entries.get(spec.id)
+        if other is not None:
+            if other.data.path == spec.path:
+                return spec.id
+            raise EnvSpecError(spec.path, [f"id={spec.id!r}: already defined by "
+                                           f"{other.data.path}"])
+        self.register(spec.id, _ENTRY_POINT, kwargs={"spec_id": spec.id},
+                      description=spec.description, data=spec)
+        return spec.id
+
+    def unregister(self, id: str) -> None:
+        """Remove ``id``, from Gymnasium's registry too."""
+        super().unregister(id)
+        gym.registry.pop(id, None)
+
+    def read_files(self) -> None:
+        """Register the spec files not read yet (idempotent).
+
+        A malformed one (or one whose id is already registered) is skipped with an
+        :class:`EnvSpecWarning` naming the file, the key and the problem.
+        """
+        new = [p for p in spec_files() if str(p) not in self._files_read]
+        if not new:
+            return
+        shipped = {str(p) for p in _shipped_files()}
+        known = {i: e.data for i, e in self._entries.items()}
+        specs, problems = _load_all(new, known, lambda p: str(p) not in shipped)
+        self._files_read.update(str(p) for p in new)
+        for exc in problems:
+            _warn_skipped(exc)
+        while specs:  # each after the env it is fit on (_load_all kept only those it finds)
+            ready = [s for s in specs if s.fit_on == s.id or s.fit_on in self._entries]
+            for spec in ready:
+                self.register(spec.id, _ENTRY_POINT, kwargs={"spec_id": spec.id},
+                              description=spec.description, data=spec)
+            if not ready:  # cannot happen: every fit_on was found
+                raise RuntimeError(f"env specs fit on unregistered envs: {specs}")
+            specs = [s for s in specs if all(s.id != r.id for r in ready)]
+
+    def _ensure_plugins(self) -> None:
+        if not self._plugins_loaded:  # the files first: a plug-in's spec may be fit on them
+            self.read_files()
+        super()._ensure_plugins()
+
+    def _load_plugin(self, ep: importlib.metadata.EntryPoint) -> None:
+        try:
+            obj = ep.load()
+            if isinstance(obj, (str, os.PathLike, EnvSpecFile)):
+                self.register_spec(obj)
+            else:
+                super()._load_plugin(ep)
+        except EnvSpecError as exc:
+            _warn_skipped(exc)
+        except Exception as exc:  # noqa: BLE001 - one plug-in must never break the other envs
+            warnings.warn(f"entry point {ep.name!r} = {ep.value!r} in group {self.group!r}: "
+                          f"{type(exc).__name__}: {exc} (the env specs it gives are skipped)",
+                          EnvSpecWarning, stacklevel=2)
+
+
+def _warn_skipped(exc: EnvSpecError) -> None:
+    warnings.warn(f"{exc} (this env spec is skipped; 'fricbench list --check' reports "
+                  "every problem)", EnvSpecWarning, stacklevel=3)
+
+
+env_registry = EnvRegistry()
+"""Every env id with its parsed spec; third-party packages add specs through the
+``fricbench.envs`` entry-point group."""
+
+
 def register_envs() -> list[str]:
     """Register every spec with Gymnasium (idempotent); return the ids.
 
-    Spec files are read once. A malformed one (or one whose id is already registered) is
-    skipped with an :class:`EnvSpecWarning` naming the file, the key and the problem.
+    Spec files are read once: the shipped ones, those on ``FRICBENCH_ENV_PATH``, and at the
+    first call the plug-ins' specs (:class:`EnvRegistry`). A malformed one (or one whose id is
+    already registered) is skipped with an :class:`EnvSpecWarning` naming the file, the key
+    and the problem.
     """
-    new = [p for p in spec_files() if str(p) not in _SEEN]
-    if not new:
-        return sorted(_SPECS)
-    shipped = {str(p) for p in _shipped_files()}
-    specs, problems = _load_all(new, _SPECS, lambda p: str(p) not in shipped)
-    _SEEN.update(str(p) for p in new)
-    for exc in problems:
-        warnings.warn(f"{exc} (this env spec is skipped; 'fricbench list --check' reports "
-                      "every problem)", EnvSpecWarning, stacklevel=2)
-    for spec in specs:
-        _SPECS[spec.id] = spec
-        single = all(t.id != "circle" for t in spec.task.trajectories)
-        gym.register(
-            id=spec.id,
-            entry_point="fricbench.gym.specs:make_env",
-            vector_entry_point="fricbench.gym.specs:make_vector_env" if single else None,
-            kwargs={"spec_id": spec.id},
-        )
-    return sorted(_SPECS)
+    env_registry.read_files()
+    return env_registry.ids()
 
 
 def check_specs() -> list[EnvSpecError]:
@@ -653,16 +816,15 @@ def check_specs() -> list[EnvSpecError]:
 def env_ids(benchmark_only: bool = False) -> list[str]:
     """Registered fricbench env ids (optionally only those the benchmark runs)."""
     register_envs()
-    return sorted(i for i, s in _SPECS.items() if s.benchmark or not benchmark_only)
+    return [i for i in env_registry.ids()
+            if get_spec(i).benchmark or not benchmark_only]
 
 
 def get_spec(spec_id: str) -> EnvSpecFile:
     """The parsed spec of a registered id (with near-match suggestions when unknown)."""
     register_envs()
-    if spec_id not in _SPECS:
-        hint = did_you_mean(spec_id, _SPECS, cutoff=0.4)
-        raise UnknownIdError(f"unknown fricbench env id {spec_id!r}{hint}")
-    return _SPECS[spec_id]
+    spec: EnvSpecFile = env_registry.spec(spec_id).data
+    return spec
 
 
 # -- keyword overrides of gym.make --------------------------------------------------------------

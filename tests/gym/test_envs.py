@@ -15,9 +15,9 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import fricbench
 from fricbench.axis import SimulationDivergedError
 from fricbench.axis import kernel as K
-from fricbench.gym import ServoAxisEnv, env_ids, get_spec, register_envs
+from fricbench.gym import ServoAxisEnv, env_registry, get_spec, register_envs
 
-ALL = env_ids()
+ALL = env_registry.ids()  # the registry sweep: every env id, plug-ins' too
 SINGLE = [e for e in ALL if get_spec(e).task.trajectories[0].id != "circle"]
 
 

@@ -4,17 +4,20 @@ before."""
 
 from __future__ import annotations
 
+import sys
 import tomllib
 import warnings
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import gymnasium as gym
 import pytest
 
 from fricbench.axis import Axis
+from fricbench.bench.runner import plan_benchmark
 from fricbench.cli import main
-from fricbench.gym import EnvSpecWarning, check_specs, env_ids, register_envs, specs
+from fricbench.gym import EnvSpecWarning, check_specs, env_ids, env_registry, register_envs, specs
 from fricbench.gym.task import TaskConfig
 
 SHIPPED = env_ids()
@@ -95,8 +98,8 @@ CORPUS: list[tuple[str, dict[str, str | bytes], str, str, str]] = [
 @pytest.fixture(autouse=True)
 def _restore_registries(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """Each case starts from the shipped envs and leaves nothing registered behind."""
-    monkeypatch.setattr(specs, "_SPECS", dict(specs._SPECS))
-    monkeypatch.setattr(specs, "_SEEN", set(specs._SEEN))
+    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
+    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
     before = set(gym.registry)
     yield
     for env_id in set(gym.registry) - before:
@@ -158,3 +161,73 @@ def test_shipped_specs_load_as_before(path: Path) -> None:
     assert (spec.id, spec.description, spec.benchmark, spec.fit_on) == (
         raw["id"], raw.get("description", ""), raw.get("benchmark", True),
         raw.get("fit_on", raw["id"]))
+
+
+def _plugin_distribution(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A third-party distribution on sys.path whose ``fricbench.envs`` entry points name a spec
+    file, a parsed spec, a function that registers one, a malformed spec and a missing name."""
+    for name, body in (("a", ""), ("b", 'description = "parsed"\n'),
+                       ("c", 'fit_on = "fricbench/PaperAxis-v0"\n'), ("bad", "[task\n")):
+        (tmp_path / f"{name}.toml").write_text(
+            f'id = "fricbench/Plugin{name.upper()}-v0"\n{body}'
+            '[task]\ntrajectories = [{ id = "random", duration = 2.0 }]\n')
+    (tmp_path / "fb_env_plugin_demo.py").write_text(
+        "from pathlib import Path\n"
+        "from fricbench.gym import specs\n"
+        "HERE = Path(__file__).parent\n"
+        "A = HERE / 'a.toml'\n"
+        "B = specs.load_spec(HERE / 'b.toml')\n"
+        "BAD = str(HERE / 'bad.toml')\n"
+        "def register(registry):\n"
+        "    registry.register_spec(str(HERE / 'c.toml'))\n")
+    dist = tmp_path / "fb_env_plugin_demo-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: fb-env-plugin-demo\n"
+                                   "Version: 0.1\n")
+    (dist / "entry_points.txt").write_text(
+        "[fricbench.envs]\na = fb_env_plugin_demo:A\nb = fb_env_plugin_demo:B\n"
+        "c = fb_env_plugin_demo:register\nbad = fb_env_plugin_demo:BAD\n"
+        "gone = fb_env_plugin_demo:Missing\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(env_registry, "_plugins_loaded", False)
+
+
+def test_plugin_env_specs_through_the_entry_point_group(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    _plugin_distribution(tmp_path, monkeypatch)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            ids = env_registry.ids()
+    finally:
+        sys.modules.pop("fb_env_plugin_demo", None)
+    messages = sorted(str(w.message) for w in caught if issubclass(w.category, EnvSpecWarning))
+    assert len(messages) == 2, messages
+    assert messages[0].startswith(f"{tmp_path / 'bad.toml'}: invalid TOML"), messages
+    assert "'gone'" in messages[1] and "Missing" in messages[1], messages
+    plugged = ["fricbench/PluginA-v0", "fricbench/PluginB-v0", "fricbench/PluginC-v0"]
+    assert set(plugged) <= set(ids) and set(SHIPPED) <= set(ids)
+    assert "fricbench/PluginBAD-v0" not in ids
+    assert env_registry.spec("fricbench/PluginB-v0").description == "parsed"
+    assert env_ids() == ids and register_envs() == ids
+    for env_id in plugged:  # what a shipped env does: gym.make, the registry's make, the bench
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        env.close()
+        assert type(env_registry.make(env_id)).__name__ == "ServoAxisEnv"
+    assert len(plan_benchmark(plugged, ["none"], [0])) == 3
+    assert main(["list"]) == 0
+    rows = [ln.split(maxsplit=2) for ln in capsys.readouterr().out.splitlines()]
+    assert ["fricbench/PluginB-v0", str(tmp_path / "b.toml"), "parsed"] in rows
+
+
+def test_env_registry_takes_specs_only() -> None:
+    spec = env_registry.spec("fricbench/PaperAxis-v0").data
+    with pytest.raises(TypeError, match="register_spec"):
+        env_registry.register("fricbench/Other-v0", "fricbench.gym.specs:make_env")
+    with pytest.raises(TypeError, match="expected a spec file's path or an EnvSpecFile"):
+        env_registry.register_spec(5)  # type: ignore[arg-type]
+    assert env_registry.register_spec(spec) == spec.id  # the same file again: nothing to do
+    with pytest.raises(ValueError, match="already defined by"):
+        env_registry.register_spec(replace(spec, path="elsewhere.toml"))

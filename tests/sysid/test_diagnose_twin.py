@@ -24,7 +24,7 @@ from fricbench.axis import simulate
 from fricbench.axis.export import write_csv
 from fricbench.axis.plant import PLANT_NAMES
 from fricbench.cli import main as cli_main
-from fricbench.gym import get_spec, register_envs, specs
+from fricbench.gym import env_registry, get_spec, register_envs
 from fricbench.sysid.diagnose.command import EXIT_BAD_INPUT, EXIT_OK
 from fricbench.sysid.diagnose.command import main as diagnose_main
 from fricbench.sysid.diagnose.twin import PLANT_PLACES
@@ -54,8 +54,8 @@ def twin(tmp_path_factory: pytest.TempPathFactory) -> dict:
 @pytest.fixture
 def registered(twin: dict, monkeypatch: pytest.MonkeyPatch) -> Iterator[str]:
     """The twin's folder on FRICBENCH_ENV_PATH; nothing left registered afterwards."""
-    monkeypatch.setattr(specs, "_SPECS", dict(specs._SPECS))
-    monkeypatch.setattr(specs, "_SEEN", set(specs._SEEN))
+    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
+    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
     monkeypatch.setenv("FRICBENCH_ENV_PATH", str(twin["folder"]))
     before = set(gym.registry)
     assert TWIN_ID in register_envs()
@@ -185,8 +185,8 @@ def test_a_run_without_effort_gives_a_cascade_twin(tmp_path: Path,
     ctrl = data["axis"]["controller"]
     assert ctrl.get("law", "cascade") == "cascade" and ctrl["kp"] > 0 and ctrl["kv"] > 0
     assert data["axis"]["mechanics"]["mass"] == 400.0 and data["id"] == "fricbench/Pos-v0"
-    monkeypatch.setattr(specs, "_SPECS", dict(specs._SPECS))
-    monkeypatch.setattr(specs, "_SEEN", set(specs._SEEN))
+    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
+    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
     monkeypatch.setenv("FRICBENCH_ENV_PATH", str(tmp_path))
     before = set(gym.registry)
     try:
