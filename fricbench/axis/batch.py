@@ -143,8 +143,8 @@ class AxisBatch:
 
     @property
     def true_position(self) -> np.ndarray:
-        """True table position (before sensor), m, shape (N,)."""
-        return self.S[:, K.S_XPLAY]
+        """True table position (before sensor: play and compliant deflection), m, shape (N,)."""
+        return self.S[:, K.S_XPLAY] + self.S[:, K.S_DEF]
 
     @property
     def velocity(self) -> np.ndarray:

@@ -59,6 +59,8 @@ P_COG_SIN, P_COG_COS, P_COG_PERIOD = PL.COG_SIN, PL.COG_COS, PL.COG_PERIOD
 P_PD_GRAD, P_PD_SIN, P_PD_COS, P_PD_PERIOD = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIOD
 P_BACKLASH, P_TH_AMP, P_TH_TAU, P_QUANT, P_NOISE, P_MEAS_TABLE = (
     PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.QUANT, PL.NOISE, PL.MEAS_TABLE)
+P_COMP_RATIO, P_COMP_FREQ, P_COMP_ZETA, P_LOG_MOTOR = (PL.COMP_RATIO, PL.COMP_FREQ,
+                                                       PL.COMP_ZETA, PL.LOG_MOTOR)
 P_KP, P_KVFF, P_KAFF, P_KV, P_TI = range(N_PLANT, N_PLANT + 5)
 # the identified linear law that replaces the cascade when P_LAW is 1:
 # u[k] = sum_i a_i u[k-i] + k_x x_r[k] + k_v v_r[k] + k_a a_r[k] + sum_m g_m x_r[k-m]
@@ -77,9 +79,10 @@ P_LAW_G = P_LAW_C + LAW_NC_MAX
 N_PARAMS = P_LAW_G + LAW_NR_MAX
 
 # -- state vector layout (columns of S): the plant's state, then the cascade's ---------------------
-S_X, S_V, S_XPLAY, S_Z = PL.S_X, PL.S_V, PL.S_XPLAY, PL.S_Z
-S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(4, 11)
-S_DBUF = 11
+S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV = PL.S_X, PL.S_V, PL.S_XPLAY, PL.S_Z, PL.S_DEF, PL.S_DEFV
+S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(PL.N_PLANT_STATE,
+                                                                 PL.N_PLANT_STATE + 7)
+S_DBUF = PL.N_PLANT_STATE + 7
 # the linear law's histories: u[k-1] .. u[k-na] and y_fb[k-1] .. y_fb[k-nc+1]
 # and x_r[k-1] .. x_r[k-nr], filled at the first sample (S_LAW_READY = 0 until then)
 S_LAW_U = S_DBUF + DELAY_MAX
@@ -99,7 +102,7 @@ RUNAWAY_POSITION = 1.0e3  # m
 def _measure(p: np.ndarray, s: np.ndarray, noise: float) -> None:
     """Take a new sensor reading into state ``s`` (used at reset)."""
     c = PL.constants(p)
-    fb, logged = PL.sense(c, s[S_X], s[S_XPLAY], s[S_T], c.noise * noise)
+    fb, logged = PL.sense(c, s[S_X], s[S_XPLAY], s[S_DEF], s[S_T], c.noise * noise)
     s[S_XFB_PREV] = s[S_XFB]
     s[S_XFB] = fb
     s[S_XMEAS] = logged
@@ -125,13 +128,13 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     m, kt = c.m, c.kt
     kp, kvff, kaff, kv, ti = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI]
     ki = ts / ti if ti > 0.0 else 0.0
-    x, v, x_play, z = s[S_X], s[S_V], s[S_XPLAY], s[S_Z]
+    x, v, x_play, z, d, dv = s[S_X], s[S_V], s[S_XPLAY], s[S_Z], s[S_DEF], s[S_DEFV]
     integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
     x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
     law = p[P_LAW] > 0.5
     na, nc, nr = int(p[P_LAW_NA]), int(p[P_LAW_NC]), int(p[P_LAW_NR])
     for k in range(n_samples):
-        x_true[n, k] = x_play
+        x_true[n, k] = x_play + d
         x_meas[n, k] = x_logged
         # -- controller ----------------------------------------------------------------
         off = u_off[n, k]
@@ -185,7 +188,7 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
                 integ += ki * e_v
         f_motor = kt * i_app
         # -- plant: mechanics over n_sub substeps ---------------------------------------
-        x, v, z, x_play, f_fric = PL.advance(c, x, v, z, x_play, f_motor)
+        x, v, z, x_play, d, dv, f_fric = PL.advance(c, x, v, z, x_play, d, dv, f_motor)
         t += ts
         force[n, k] = f_motor
         friction[n, k] = f_fric
@@ -197,8 +200,8 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
             break
         # -- plant: sensor reading for the next sample -----------------------------------
         x_fb_prev = x_fb
-        x_fb, x_logged = PL.sense(c, x, x_play, t, c.noise * noise[n, k])
-    s[S_X], s[S_V], s[S_XPLAY], s[S_Z] = x, v, x_play, z
+        x_fb, x_logged = PL.sense(c, x, x_play, d, t, c.noise * noise[n, k])
+    s[S_X], s[S_V], s[S_XPLAY], s[S_Z], s[S_DEF], s[S_DEFV] = x, v, x_play, z, d, dv
     s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t
     s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP] = x_logged, off_prev, i_app
 
@@ -258,7 +261,8 @@ def run_kernel(P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray, ar:
     noise : ndarray, shape (N, K)
         Standard normal draws for the measurement taken after each sample.
     out : tuple of 4 ndarrays, shape (N, K)
-        Filled with the true table position at ``t_k`` (m), the logged measured position (m),
+        Filled with the true table position at ``t_k`` (m; after play and compliant
+        deflection, without the thermal drift), the logged measured position (m),
         the motor force over ``[t_k, t_k+1)`` (N) and the mean friction force (N).
     status : ndarray of int64, shape (N,)
         Set to a non-zero ``STATUS_*`` code for an axis whose state diverged; that axis stops.

@@ -55,7 +55,9 @@ def plant(axis: Axis, discrete: bool = True) -> control.StateSpace:
 
 
 def sampled_plant(axis: Axis) -> control.StateSpace:
-    """The mechanics as the kernel advances them over one sample, friction and effects off.
+    """The mechanics as the kernel advances them over one sample, friction and effects off
+    (but the compliant coupling, when on: states ``d, dv`` after ``x, v``, output the fed-back
+    side).
 
     ``n_substeps`` substeps of ``h = ts / n_substeps`` with the force held, each
     ``v+ = (M v + h F) / (M + h B)`` (implicit in the damping) and ``x+ = x + h (v + v+) / 2``
@@ -63,33 +65,74 @@ def sampled_plant(axis: Axis) -> control.StateSpace:
     the command. Inputs ``F`` (commanded motor force) and ``d`` (disturbance, not delayed), N;
     states ``x, v`` and the commands in transit; output ``x``.
     """
-    return _sampled_plant(axis.controller, axis.mechanics, axis.effects.delay_samples)
+    return _sampled_plant(axis.controller, axis.mechanics, axis.effects.delay_samples,
+                          _compliance(axis.effects))
 
 
-def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int) -> control.StateSpace:
+Compliance = tuple[float, float, float, bool]
+"""``(load fraction, resonance Hz, damping ratio, feedback on the table)`` of a compliant axis."""
+
+RIGID: Compliance = (0.0, 50.0, 0.05, False)
+
+
+def _compliance(e: Effects) -> Compliance:
+    if e.compliance_load_fraction <= 0.0:
+        return RIGID
+    return (e.compliance_load_fraction, e.compliance_frequency, e.compliance_damping,
+            e.measurement == "table")
+
+
+def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int,
+                   comp: Compliance = RIGID) -> control.StateSpace:
     h = c.ts / c.n_substeps
+    ratio, f_r, zeta, table = comp
+    if ratio > 0.0:
+        # the substep of fricbench.axis.plant.advance with friction off, on [x, v, d, dv]
+        from fricbench.axis.plant import compliance_constants
+
+        p00, p01, p10, p11, g0, g1, f_d, f_dv, g, m_motor = compliance_constants(
+            m.mass, ratio, f_r, zeta, h)
+        m_eff = m_motor - g
+    else:
+        m_eff = m.mass
     # one substep: v+ = g v + b F, x+ = x + h/2 (1 + g) v + h/2 b F
-    g = m.mass / (m.mass + h * m.damping)
-    b = h / (m.mass + h * m.damping)
-    a_sub = np.array([[1.0, 0.5 * h * (1.0 + g)], [0.0, g]])
-    b_sub = np.array([0.5 * h * b, b])
-    a_mech, b_mech = np.eye(2), np.zeros(2)
+    gv = m_eff / (m_eff + h * m.damping)
+    b = h / (m_eff + h * m.damping)
+    n_mech = 4 if ratio > 0.0 else 2
+    a_sub = np.zeros((n_mech, n_mech))
+    a_sub[:2, :2] = [[1.0, 0.5 * h * (1.0 + gv)], [0.0, gv]]
+    b_sub = np.zeros(n_mech)
+    b_sub[:2] = [0.5 * h * b, b]
+    if ratio > 0.0:
+        # v+ also takes the spring's mean force f_d d + f_dv dv; the deflection follows the
+        # motor acceleration a = (v+ - v) / h exactly
+        a_sub[1, 2:] = [b * f_d, b * f_dv]
+        a_sub[0, 2:] = 0.5 * h * a_sub[1, 2:]
+        acc = (a_sub[1] - np.eye(n_mech)[1]) / h
+        a_sub[2] = g0 * acc + np.array([0.0, 0.0, p00, p01])
+        a_sub[3] = g1 * acc + np.array([0.0, 0.0, p10, p11])
+        b_sub[2:] = np.array([g0, g1]) * b / h
+    a_mech, b_mech = np.eye(n_mech), np.zeros(n_mech)
     for _ in range(c.n_substeps):
         a_mech, b_mech = a_sub @ a_mech, a_sub @ b_mech + b_sub
-    n = 2 + delay
+    n = n_mech + delay
     a, bm = np.zeros((n, n)), np.zeros((n, 2))
-    a[:2, :2] = a_mech
-    bm[:2, 1] = b_mech
+    a[:n_mech, :n_mech] = a_mech
+    bm[:n_mech, 1] = b_mech
     if delay:
-        # states 2.. hold F[k-1] .. F[k-delay]; the mechanics get F[k-delay]
-        a[:2, n - 1] = b_mech
-        a[2:, 2:] = np.eye(delay, k=-1)
-        bm[2, 0] = 1.0
+        # states n_mech.. hold F[k-1] .. F[k-delay]; the mechanics get F[k-delay]
+        a[:n_mech, n - 1] = b_mech
+        a[n_mech:, n_mech:] = np.eye(delay, k=-1)
+        bm[n_mech, 0] = 1.0
     else:
-        bm[:2, 0] = b_mech
+        bm[:n_mech, 0] = b_mech
     cm = np.zeros((1, n))
     cm[0, 0] = 1.0
-    states = ["x", "v"] + [f"F[k-{i}]" for i in range(1, delay + 1)]
+    if ratio > 0.0 and table:
+        # a linear scale on the table reads x_M + d
+        cm[0, 2] = 1.0
+    states = (["x", "v"] + (["d", "dv"] if ratio > 0.0 else [])
+              + [f"F[k-{i}]" for i in range(1, delay + 1)])
     return control.ss(a, bm, cm, np.zeros((1, 2)), c.ts, inputs=["F", "d"], outputs=["x"],
                       states=states, name="plant")
 
@@ -175,24 +218,28 @@ def sampled_closed_loop(axis: Axis) -> control.StateSpace:
     """The loop the kernel runs with friction and effects off, at ``ts``: :func:`sampled_plant`
     (substeps and actuator delay) closed by :func:`controller`. Inputs and output as in
     :func:`closed_loop` (current saturation, sensor effects and friction left out)."""
-    return _sampled_loop(axis.controller, axis.mechanics, axis.effects.delay_samples)
+    return _sampled_loop(axis.controller, axis.mechanics, axis.effects.delay_samples,
+                         _compliance(axis.effects))
 
 
-def _sampled_loop(c: ControllerParams, m: MechanicsParams, delay: int) -> control.StateSpace:
+def _sampled_loop(c: ControllerParams, m: MechanicsParams, delay: int,
+                  comp: Compliance = RIGID) -> control.StateSpace:
     return control.interconnect(
-        [_sampled_plant(c, m, delay), _controller(c, m)],
+        [_sampled_plant(c, m, delay, comp), _controller(c, m)],
         inputs=["x_ref", "v_ref", "a_ref", "u", "d"], outputs=["x"], name="axis")
 
 
 @lru_cache(maxsize=512)
-def _radius(c: ControllerParams, m: MechanicsParams, delay: int) -> float:
+def _radius(c: ControllerParams, m: MechanicsParams, delay: int,
+            comp: Compliance = RIGID) -> float:
     # keyed by the frozen parameter sets: friction (redrawn per episode) is not part of the key
-    return float(np.max(np.abs(_sampled_loop(c, m, delay).poles())))
+    return float(np.max(np.abs(_sampled_loop(c, m, delay, comp).poles())))
 
 
 def spectral_radius(axis: Axis) -> float:
     """Largest pole magnitude ``|z|`` of :func:`sampled_closed_loop` (below 1: stable)."""
-    return _radius(axis.controller, axis.mechanics, axis.effects.delay_samples)
+    return _radius(axis.controller, axis.mechanics, axis.effects.delay_samples,
+                   _compliance(axis.effects))
 
 
 def check_stability(axis: Axis) -> None:
@@ -205,7 +252,8 @@ def check_stability(axis: Axis) -> None:
     its default), with the values of the others and the two rules of thumb.
     """
     c, m, delay = axis.controller, axis.mechanics, axis.effects.delay_samples
-    rho = _radius(c, m, delay)
+    comp = _compliance(axis.effects)
+    rho = _radius(c, m, delay, comp)
     if rho <= 1.0 + STABILITY_MARGIN:
         return
     if c.law == "linear":
@@ -215,6 +263,14 @@ def check_stability(axis: Axis) -> None:
                          f"sampled closed loop of the linear law is unstable (pole |z|="
                          f"{rho:.4g} at ts={c.ts:g} s, {delay} samples of delay); expected "
                          "every pole |z| <= 1")
+    if comp != RIGID and _radius(c, m, delay) <= 1.0 + STABILITY_MARGIN:
+        side = "the table (measurement='table')" if comp[3] else "the motor"
+        raise ValueError(
+            f"effects.compliance_load_fraction={comp[0]:g} with compliance_frequency="
+            f"{comp[1]:g} Hz, compliance_damping={comp[2]:g} and feedback from {side}: the "
+            f"sampled closed loop is unstable (pole |z|={rho:.4g}) although the rigid axis is "
+            "stable; expected a stiffer or better damped coupling, a smaller load fraction, "
+            "feedback from the motor, or lower loop gains")
     raise ValueError(_unstable_message(c, m, delay, rho))
 
 

@@ -33,7 +33,8 @@ DIVERGED_SPEED = 1.0e6
 
 def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.ndarray,
              t: np.ndarray, x0: float, v0: float, u_init: np.ndarray, y_init: np.ndarray,
-             noise: np.ndarray, y_out: np.ndarray, u_out: np.ndarray) -> int:
+             noise: np.ndarray, y_out: np.ndarray, u_out: np.ndarray,
+             y2_out: np.ndarray) -> int:
     n = r.shape[0]
     na = a.shape[0]
     nc = c.shape[0]
@@ -48,9 +49,16 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
     v = v0
     z = 0.0
     play = x0
+    d = 0.0
+    dv = 0.0
     for k in range(n):
-        y_fb, y_k = PL.sense(pc, x, play, t[k], noise[k])
+        y_fb, y_k = PL.sense(pc, x, play, d, t[k], noise[k])
         y_out[k] = y_k
+        # the other encoder: the motor's when the table is logged, else the table's
+        if pc.log_motor:
+            y2_out[k] = PL.load_position(pc, play, d, t[k]) + noise[k]
+        else:
+            y2_out[k] = x + noise[k]
         for j in range(nc - 1, 0, -1):
             yh[j] = yh[j - 1]
         if nc > 0:
@@ -73,10 +81,11 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
             uh[0] = u
         u_out[k] = u
         u_app, _ = PL.actuate(pc, buf, 0, u)
-        x, v, z, play, _ = PL.advance(pc, x, v, z, play, pc.kt * u_app)
-        if not (math.isfinite(x) and abs(v) < DIVERGED_SPEED):
+        x, v, z, play, d, dv, _ = PL.advance(pc, x, v, z, play, d, dv, pc.kt * u_app)
+        if not (math.isfinite(x) and math.isfinite(d) and abs(v) < DIVERGED_SPEED):
             for kk in range(k + 1, n):
                 y_out[kk] = np.nan
+                y2_out[kk] = np.nan
                 u_out[kk] = np.nan
             return 1
     return 0
@@ -88,16 +97,18 @@ _run_one = numba.njit(cache=True, fastmath=FASTMATH)(_run_one)
 @numba.njit(cache=True, parallel=True)
 def _run_batch(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np.ndarray,
                t: np.ndarray, x0: float, v0: float, U0: np.ndarray, y_init: np.ndarray,
-               noise: np.ndarray, Y: np.ndarray, U: np.ndarray, status: np.ndarray) -> None:
+               noise: np.ndarray, Y: np.ndarray, U: np.ndarray, Y2: np.ndarray,
+               status: np.ndarray) -> None:
     for i in numba.prange(P.shape[0]):
         status[i] = _run_one(P[i], A[i], C[i], R[i], w, t, x0, v0, U0[i], y_init, noise, Y[i],
-                             U[i])
+                             U[i], Y2[i])
 
 
 def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray,
                    t: np.ndarray, ts: float, *, n_sub: int, x0: float, v0: float,
                    u_init: np.ndarray, y_init: np.ndarray, w: np.ndarray | None = None,
                    noise: np.ndarray | None = None, quant: float = 0.0,
+                   other: np.ndarray | None = None,
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Simulate ``N`` parameter sets of the closed loop in parallel (one row each).
 
@@ -130,6 +141,9 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
         Measurement noise added to the fed-back and the logged position.
     quant : float
         Quantisation step of both sensors (0: none).
+    other : ndarray, shape (N, K), optional
+        Filled with the other encoder's reading (the motor's when the row logs the table, the
+        table's when it logs the motor: ``log_motor``), with the same noise, unquantised.
 
     Returns
     -------
@@ -159,9 +173,14 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     nn = np.zeros(n) if noise is None else np.ascontiguousarray(noise, dtype=float)
     Y = np.empty((n_rows, n))
     U = np.empty((n_rows, n))
+    if other is not None and (other.shape != (n_rows, n) or other.dtype != np.float64
+                              or not other.flags.c_contiguous):
+        raise ValueError(f"other: expected a C-contiguous float array of shape {(n_rows, n)}, "
+                         f"got {other.dtype} {other.shape}")
+    Y2 = np.empty((n_rows, n)) if other is None else other
     status = np.zeros(n_rows, dtype=np.int64)
     _run_batch(P, A, C, R, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
-               np.ascontiguousarray(y_init, dtype=float), nn, Y, U, status)
+               np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status)
     return Y, U, status
 
 

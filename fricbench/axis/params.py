@@ -185,6 +185,17 @@ class Effects:
         Standard deviation of the current-measurement noise, A: added to the motor current the
         drive reports (the observation's motor force, ``SimulationResult.u``), not to the
         current that drives the axis (the current loop is taken as ideal at these bandwidths).
+    compliance_load_fraction : float
+        Compliant axis: the share ``r = m_L / M`` of the mass that is the load (table) behind
+        a spring and a damper (coupling, screw, nut); 0 (the default) is the rigid axis. The
+        motor side ``(1 - r) M`` takes the motor force, the friction, the damping, the load
+        force and the cogging; ``measurement = "table"`` feeds back the load side, and logged
+        positions are the load's (:mod:`fricbench.axis.plant`). At most 0.95.
+    compliance_frequency : float
+        Resonance of the free two-mass axis ``f_r = sqrt(k / mu) / (2 pi)``, Hz
+        (``mu = m_M m_L / M``; the motor side's anti-resonance is ``f_r sqrt(1 - r)``).
+    compliance_damping : float
+        Damping ratio ``zeta`` of that resonance (``c = 2 zeta mu 2 pi f_r``), 0 .. 2.
     """
 
     backlash: float = 0.0
@@ -205,6 +216,9 @@ class Effects:
     noise_std: float = 0.0
     delay_samples: int = 0
     current_noise_std: float = 0.0
+    compliance_load_fraction: float = 0.0
+    compliance_frequency: float = 50.0
+    compliance_damping: float = 0.05
 
     def __post_init__(self) -> None:
         check_range("backlash", self.backlash, 0.0, 1e-3, "m")
@@ -225,6 +239,9 @@ class Effects:
         check_range("noise_std", self.noise_std, 0.0, 1e-4, "m")
         check_int("delay_samples", self.delay_samples, 0, K.DELAY_MAX)
         check_range("current_noise_std", self.current_noise_std, 0.0, 100.0, "A")
+        check_range("compliance_load_fraction", self.compliance_load_fraction, 0.0, 0.95)
+        check_range("compliance_frequency", self.compliance_frequency, 0.1, 1.0e5, "Hz")
+        check_range("compliance_damping", self.compliance_damping, 0.0, 2.0)
 
 
 def _coerce(cls: type, value: Any, name: str) -> Any:
@@ -388,6 +405,9 @@ class Axis:
         p[K.P_QUANT] = e.quantization
         p[K.P_NOISE] = e.noise_std
         p[K.P_DELAY] = e.delay_samples
+        p[K.P_COMP_RATIO] = e.compliance_load_fraction
+        p[K.P_COMP_FREQ] = e.compliance_frequency
+        p[K.P_COMP_ZETA] = e.compliance_damping
         return p
 
     @property

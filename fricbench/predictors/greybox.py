@@ -70,10 +70,11 @@ def loop_inputs(x_ref: np.ndarray, ts: float) -> LoopInputs:
 
 
 def _plant_size(state: dict[str, torch.Tensor]) -> int:
-    """Stored plant-row length: the shared plant's, or the 19 entries of earlier files."""
+    """Stored plant-row length: the shared plant's, or the 19 or 32 entries of earlier files."""
     stored = state.get("plant_")
-    if stored is not None and tuple(stored.shape) == (CL.LEGACY_N_PLANT,):
-        return CL.LEGACY_N_PLANT
+    if stored is not None and tuple(stored.shape) in ((CL.LEGACY_N_PLANT,),
+                                                      (PL.N_PLANT_RIGID,)):
+        return int(stored.shape[0])
     return CL.N_PLANT
 
 
@@ -201,8 +202,11 @@ class GreyBoxPredictor(Predictor):
     def _set_state(self, state: dict[str, torch.Tensor]) -> None:
         values = [float(v) for v in state["controller_"]]
         plant = state["plant_"].numpy().astype(float)
-        if plant.shape[0] != CL.N_PLANT:
+        if plant.shape[0] == CL.LEGACY_N_PLANT:
             plant = CL.from_legacy_row(plant)
+        elif plant.shape[0] != CL.N_PLANT:
+            # a row of the rigid plant, before compliance was appended
+            plant = PL.pad_row(plant)
         # an unlimited actuator is the one infinite entry a plant row may hold
         limits = plant[PL.IMAX]
         if not (np.all(np.isfinite(values)) and np.all(np.isfinite(np.delete(plant, PL.IMAX)))

@@ -1,0 +1,141 @@
+"""The compliant (two-mass) axis in the one plant (issue 13 item 3)."""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+import pytest
+
+from fricbench.axis import Axis, AxisBatch, simulate
+from fricbench.axis import kernel as K
+from fricbench.axis import plant as PL
+from fricbench.axis.linear import sampled_closed_loop
+from fricbench.axis.linear_law import simulate_batch
+from fricbench.trajectories import make_trajectory
+
+
+@pytest.fixture(scope="module")
+def s_curve():
+    return make_trajectory("s_curve")
+
+
+def _open_loop(row: np.ndarray, force: np.ndarray, ts: float, n_sub: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Table and motor positions of a plant row driven by ``force`` (no controller)."""
+    n = force.shape[0]
+    other = np.empty((1, n))
+    y, _, status = simulate_batch(row[None, :], np.zeros((1, 0)), np.zeros((1, 0)),
+                                  force[None, :], np.arange(n) * ts, ts, n_sub=n_sub, x0=0.0,
+                                  v0=0.0, u_init=np.zeros((1, 0)), y_init=np.zeros(0),
+                                  other=other)
+    assert status[0] == 0
+    return y[0], other[0]
+
+
+def _row(mass: float, ratio: float, f_r: float, zeta: float, ts: float = 1e-3,
+         n_sub: int = 5) -> np.ndarray:
+    p = PL.default_row(mass, 0.0, ts, n_sub)
+    p[PL.COMP_RATIO], p[PL.COMP_FREQ], p[PL.COMP_ZETA] = ratio, f_r, zeta
+    return p
+
+
+def _peak_hz(x: np.ndarray, ts: float) -> float:
+    """Frequency of the largest spectral peak of a decaying response (zero padding, parabolic
+    fit on the log magnitude; no window: the response decays within the record)."""
+    xw = x - x.mean()
+    n_fft = 16 * x.size
+    mag = np.abs(np.fft.rfft(xw, n_fft))
+    k = int(np.argmax(mag[1:])) + 1
+    a, b, c = np.log(mag[k - 1:k + 2])
+    return (k + 0.5 * (a - c) / (a - 2 * b + c)) / (n_fft * ts)
+
+
+def test_compliance_off_is_the_rigid_axis_bit_for_bit(s_curve) -> None:
+    """A zero load fraction ignores the other compliance entries: the rigid axis exactly."""
+    base = Axis().with_effects(noise_std=1e-7, backlash=2e-6, cogging_amplitude=10.0)
+    off = base.with_effects(compliance_frequency=13.0, compliance_damping=0.7)
+    a, b = simulate(base, s_curve, seed=4), simulate(off, s_curve, seed=4)
+    for name in ("x", "x_true", "u", "friction"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert sampled_closed_loop(base).nstates == sampled_closed_loop(off).nstates
+
+
+@pytest.mark.parametrize("measurement", ["motor", "table"])
+def test_sampled_closed_loop_is_the_kernel_with_compliance(s_curve, measurement: str) -> None:
+    """Friction off, the stability check's loop is the compliant kernel's own map (its output
+    is the fed-back side: logged here from the same side)."""
+    # a soft loop (the full-closed loop of a compliant axis needs low gains)
+    axis = Axis.from_dict({"controller": {"kp": 5.0, "kv": 10.0, "ti": 0.3}}).without_friction(
+        ).with_effects(compliance_load_fraction=0.4, compliance_frequency=35.0,
+                       compliance_damping=0.05, measurement=measurement)
+    batch = AxisBatch(axis)
+    batch.P[:, K.P_LOG_MOTOR] = 1.0 if measurement == "motor" else 0.0
+    batch.reset(s_curve.x[0])
+    rows = (lambda a: np.ascontiguousarray(np.atleast_2d(a)))
+    _, x_logged, _, _ = batch.run(rows(s_curve.x), rows(s_curve.v), rows(s_curve.a))
+    z = np.zeros_like(s_curve.t)
+    resp = control.forced_response(sampled_closed_loop(axis), T=s_curve.t,
+                                   U=np.vstack([s_curve.x, s_curve.v, s_curve.a, z, z]))
+    assert np.max(np.abs(resp.outputs - x_logged[0])) < 1e-10 * np.ptp(s_curve.x)
+
+
+def test_stiff_coupling_tends_to_the_rigid_axis() -> None:
+    ts, n = 1e-3, 2000
+    force = 100.0 * np.sin(2 * np.pi * 3.0 * np.arange(n) * ts)
+    rigid, _ = _open_loop(_row(10.0, 0.0, 50.0, 0.05), force, ts, 5)
+    gaps = []
+    for f_r in (1e2, 1e3, 1e4, 1e5):
+        table, motor = _open_loop(_row(10.0, 0.5, f_r, 0.05), force, ts, 5)
+        gaps.append(max(np.max(np.abs(table - rigid)), np.max(np.abs(motor - rigid))))
+    # the deflection falls as 1 / f_r^2 (the load's inertia force over the stiffness): at least
+    # 20 times per decade of stiffness
+    assert all(g2 < 0.05 * g1 for g1, g2 in zip(gaps, gaps[1:], strict=False))
+    assert gaps[-1] < 1e-9 * np.ptp(rigid)
+
+
+def test_resonance_matches_the_formula() -> None:
+    """Impulse response of the free two-mass axis: its peak at f_r within 2 % (random draws)."""
+    rng = np.random.default_rng(2026)
+    ts = 1e-3
+    for _ in range(6):
+        ratio = rng.uniform(0.1, 0.8)
+        f_r = rng.uniform(10.0, 150.0)
+        zeta = rng.uniform(0.005, 0.05)
+        mass = rng.uniform(1.0, 500.0)
+        force = np.zeros(8000)
+        force[5] = mass
+        table, motor = _open_loop(_row(mass, ratio, f_r, zeta), force, ts, 5)
+        f_meas = _peak_hz((table - motor)[10:], ts)
+        assert abs(f_meas / f_r - 1.0) < 0.02, (ratio, f_r, zeta, f_meas)
+
+
+def test_compliance_is_validated() -> None:
+    with pytest.raises(ValueError, match=r"compliance_load_fraction=1.2: expected a value in"):
+        Axis().with_effects(compliance_load_fraction=1.2)
+    with pytest.raises(ValueError, match=r"compliance_frequency=0.0: expected .* Hz"):
+        Axis().with_effects(compliance_frequency=0.0)
+    with pytest.raises(ValueError, match=r"compliance_damping=-0.1"):
+        Axis().with_effects(compliance_damping=-0.1)
+
+
+def test_unstable_full_closed_loop_is_refused_naming_the_compliance() -> None:
+    with pytest.raises(ValueError, match=r"^effects.compliance_load_fraction=0.5 .* feedback "
+                                         r"from the table .*although the rigid axis is stable"):
+        Axis().with_effects(compliance_load_fraction=0.5, compliance_frequency=20.0,
+                            measurement="table")
+
+
+def test_axis_spec_carries_compliance() -> None:
+    spec = Axis().with_effects(compliance_load_fraction=0.3, compliance_frequency=60.0,
+                               compliance_damping=0.02).to_dict()
+    axis = Axis.from_dict(spec)
+    p = axis.pack()
+    assert (p[PL.COMP_RATIO], p[PL.COMP_FREQ], p[PL.COMP_ZETA]) == (0.3, 60.0, 0.02)
+
+
+def test_rigid_rows_are_padded() -> None:
+    old = PL.default_row(3.0)[:PL.N_PLANT_RIGID]
+    row = PL.pad_row(old)
+    assert row.shape == (PL.N_PLANT,) and row[PL.COMP_RATIO] == 0.0
+    with pytest.raises(ValueError, match="expected a plant row of 36"):
+        PL.pad_row(np.zeros(5))
