@@ -86,32 +86,35 @@ def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int,
                    comp: Compliance = RIGID) -> control.StateSpace:
     h = c.ts / c.n_substeps
     ratio, f_r, zeta, table = comp
-    if ratio > 0.0:
-        # the substep of fricbench.axis.plant.advance with friction off, on [x, v, d, dv]
-        from fricbench.axis.plant import compliance_constants
-
-        p00, p01, p10, p11, g0, g1, f_d, f_dv, g, m_motor = compliance_constants(
-            m.mass, ratio, f_r, zeta, h)
-        m_eff = m_motor - g
-    else:
-        m_eff = m.mass
-    # one substep: v+ = g v + b F, x+ = x + h/2 (1 + g) v + h/2 b F
-    gv = m_eff / (m_eff + h * m.damping)
-    b = h / (m_eff + h * m.damping)
     n_mech = 4 if ratio > 0.0 else 2
     a_sub = np.zeros((n_mech, n_mech))
-    a_sub[:2, :2] = [[1.0, 0.5 * h * (1.0 + gv)], [0.0, gv]]
     b_sub = np.zeros(n_mech)
-    b_sub[:2] = [0.5 * h * b, b]
     if ratio > 0.0:
-        # v+ also takes the spring's mean force f_d d + f_dv dv; the deflection follows the
-        # motor acceleration a = (v+ - v) / h exactly
-        a_sub[1, 2:] = [b * f_d, b * f_dv]
-        a_sub[0, 2:] = 0.5 * h * a_sub[1, 2:]
-        acc = (a_sub[1] - np.eye(n_mech)[1]) / h
-        a_sub[2] = g0 * acc + np.array([0.0, 0.0, p00, p01])
-        a_sub[3] = g1 * acc + np.array([0.0, 0.0, p10, p11])
-        b_sub[2:] = np.array([g0, g1]) * b / h
+        # the substep of fricbench.axis.plant.advance with friction off, on [x, v, d, dv]:
+        # v_lin = Phi_v s; v+ = v_lin + h F / m_eff; g = m_eff (v+ - v_lin) / h;
+        # x+ = x + Psi s + Lambda g; (d, d')+ = Phi_d s + Gamma_d g   (s = [v, d, d'])
+        from fricbench.axis.plant import compliance_constants
+
+        cc = np.array(compliance_constants(m.mass, ratio, f_r, zeta, h, m.damping))
+        phi, gam, psi, lam = cc[:9].reshape(3, 3), cc[9:12], cc[12:15], cc[15]
+        m_eff = h / gam[0]
+        den = m_eff  # B is inside the exact map
+        v_row = np.concatenate([[0.0], m_eff / den * phi[0]])     # on [x, v, d, d']
+        v_in = h / den
+        g_row = m_eff / h * (v_row - np.concatenate([[0.0], phi[0]]))
+        g_in = m_eff / h * v_in
+        a_sub[0] = np.concatenate([[1.0], psi]) + lam * g_row
+        b_sub[0] = lam * g_in
+        a_sub[1], b_sub[1] = v_row, v_in
+        for j in (1, 2):
+            a_sub[j + 1] = np.concatenate([[0.0], phi[j]]) + gam[j] * g_row
+            b_sub[j + 1] = gam[j] * g_in
+    else:
+        # one substep: v+ = g v + b F, x+ = x + h/2 (1 + g) v + h/2 b F
+        gv = m.mass / (m.mass + h * m.damping)
+        b = h / (m.mass + h * m.damping)
+        a_sub[:] = [[1.0, 0.5 * h * (1.0 + gv)], [0.0, gv]]
+        b_sub[:] = [0.5 * h * b, b]
     a_mech, b_mech = np.eye(n_mech), np.zeros(n_mech)
     for _ in range(c.n_substeps):
         a_mech, b_mech = a_sub @ a_mech, a_sub @ b_mech + b_sub

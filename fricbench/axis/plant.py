@@ -39,15 +39,15 @@ offset and the cogging act on it) and a load ``m_L = r M`` (the table) coupled t
 ``f_r`` is the resonance of the free axis (motor force in, nothing held), ``zeta`` its damping
 ratio; the anti-resonance of the motor side is ``f_a = f_r sqrt(1 - r)``. Friction acting on
 the motor side is the usual reduction of a ball-screw axis (screw bearings, nut, motor) and
-keeps a zero load fraction identical to the rigid axis. Per substep the deflection obeys
-``delta'' + 2 zeta_a w_a delta' + w_a^2 delta = -a_M`` (``w_a = 2 pi f_a``), which is integrated
-exactly for the motor acceleration ``a_M`` held over the substep (the one the motor update
-makes); the substep's mean spring force on the motor is affine in ``a_M``, so its ``a_M`` part
-joins the motor's mass (``m_eff = m_M + m_L gamma``, ``gamma`` -> 1 for a stiff spring) and the
-motor update stays the implicit one above, stiction and all. It is stable for any stiffness
-(a spring of 100 kHz gives the rigid axis to 1e-10 of the stroke) and adds no numerical damping;
-the resonance comes out low by less than ``(w_r h)^2 / 12`` at substep ``h`` (measured at
-``h`` = 0.2 ms: -0.02 % at 80 Hz, -0.1 % at 200 Hz, -0.4 % at 400 Hz).
+keeps a zero load fraction identical to the rigid axis. Per substep, the two-mass system
+(with ``B``) under the motor force ``g`` held (actuator, friction, cogging: all but the spring
+and ``B``) is integrated exactly (a matrix exponential, once per row); ``g`` itself comes from
+the implicit update above with the mass a held force accelerates over the substep
+(``m_eff = h / Gamma_v``: the motor side's for a soft spring, ``M`` for a stiff one), stiction
+and all. So the linear two-mass axis is exact for a force held over each substep (a zero-order
+hold, as the rigid axis is; scipy's ZOH discretisation to 1e-9 in the tests), for any stiffness
+(a spring of 100 kHz gives the rigid axis to 1e-10 of the stroke), without numerical damping;
+friction is implicit as on the rigid axis.
 
 The plant row (columns below) is the union of what the environments and the diagnosis need.
 Everything is in one consistent set of units: SI for the environments; the diagnosis may use
@@ -156,33 +156,37 @@ def pad_row(row: np.ndarray) -> np.ndarray:
 
 
 def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
-                         h: float) -> tuple[float, float, float, float, float, float, float,
-                                            float, float, float]:
+                         h: float, damping: float = 0.0) -> tuple[float, ...]:
     """Substep constants of the compliant coupling (see the module docstring).
 
-    Returns ``(phi00, phi01, phi10, phi11, gam0, gam1, f_d, f_dv, g, m_motor)``: the exact
-    transition of ``(delta, ddelta/dt)`` over a substep ``h`` with the motor acceleration ``a``
-    held (``s+ = Phi s + Gamma a``), the mean spring force on the motor over the substep,
-    ``f_d delta + f_dv ddelta/dt + g a``, and the motor-side mass.
+    The two-mass system (with the motor side's viscous ``damping`` B) with the motor's force
+    ``g`` (everything but the spring and B: the actuator, friction, cogging) held over a
+    substep ``h`` is integrated exactly: with
+    ``s = (v_M, d, d')``, ``s+ = Phi s + Gamma g`` and ``x_M+ = x_M + Psi s + Lambda g``.
+
+    Returns ``(Phi (row-major, 9), Gamma (3), Psi (3), Lambda)``, 16 numbers.
     """
     m_load = ratio * m_total
     m_motor = m_total - m_load
     w_r = 2.0 * math.pi * f_r
     mu = m_motor * m_load / m_total
-    # k = mu w_r^2, c = 2 zeta mu w_r; on the deflection: w_a^2 = k / m_L, 2 zeta_a w_a = c / m_L
+    # k = mu w_r^2, c = 2 zeta mu w_r
     k = mu * w_r * w_r
     c = 2.0 * zeta * mu * w_r
-    wa2 = k / m_load
-    ca = c / m_load
-    # augmented state w = [delta, delta', int delta, int delta', a]: w' = F w, w(h) = expm(F h) w
+    # w = [v, d, d', int v, g]:  m_M v' = g - B v + k d + c d' ;  d'' = -(k d + c d') / m_L - v'
     F = np.zeros((5, 5))
-    F[0, 1] = h
-    F[1, 0] = -wa2 * h
-    F[1, 1] = -ca * h
-    F[1, 4] = -h
-    F[2, 0] = h
-    F[3, 1] = h
-    # scaling and squaring with a Taylor series (F h is small after scaling: 1e-16 accurate)
+    F[0, 0] = -damping / m_motor
+    F[2, 0] = damping / m_motor
+    F[0, 1] = k / m_motor
+    F[0, 2] = c / m_motor
+    F[0, 4] = 1.0 / m_motor
+    F[1, 2] = 1.0
+    F[2, 1] = -k / m_load - k / m_motor
+    F[2, 2] = -c / m_load - c / m_motor
+    F[2, 4] = -1.0 / m_motor
+    F[3, 0] = 1.0
+    F = F * h
+    # expm(F h) by scaling and squaring with a Taylor series (1e-16 accurate once scaled)
     norm = 0.0
     for i in range(5):
         row = 0.0
@@ -201,11 +205,8 @@ def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
         E = E + term
     for _ in range(n_sq):
         E = E @ E
-    # mean spring force on the motor: (k int delta + c int delta') / h
-    f_d = (k * E[2, 0] + c * E[3, 0]) / h
-    f_dv = (k * E[2, 1] + c * E[3, 1]) / h
-    g = (k * E[2, 4] + c * E[3, 4]) / h
-    return (E[0, 0], E[0, 1], E[1, 0], E[1, 1], E[0, 4], E[1, 4], f_d, f_dv, g, m_motor)
+    return (E[0, 0], E[0, 1], E[0, 2], E[1, 0], E[1, 1], E[1, 2], E[2, 0], E[2, 1], E[2, 2],
+            E[0, 4], E[1, 4], E[2, 4], E[3, 0], E[3, 1], E[3, 2], E[3, 4])
 
 
 class Plant(NamedTuple):
@@ -214,7 +215,7 @@ class Plant(NamedTuple):
     h: float
     n_sub: int
     m: float
-    b: float
+    b: float  # the damping of the implicit update (0 on a compliant axis: in its exact map)
     kt: float
     i_max: float
     delay: int
@@ -248,14 +249,22 @@ class Plant(NamedTuple):
     meas_table: bool
     m_eff: float
     comp: bool
-    phi00: float
-    phi01: float
-    phi10: float
-    phi11: float
-    gam0: float
-    gam1: float
-    f_d: float
-    f_dv: float
+    p_vv: float
+    p_vd: float
+    p_vdv: float
+    p_dv: float
+    p_dd: float
+    p_ddv: float
+    p_rv: float
+    p_rd: float
+    p_rdv: float
+    g_v: float
+    g_d: float
+    g_r: float
+    x_v: float
+    x_d: float
+    x_dv: float
+    x_g: float
     log_motor: bool
 
 
@@ -267,15 +276,17 @@ def constants(p: np.ndarray) -> Plant:
     n_sub = max(int(p[NSUB]), 1)
     h = p[TS] / n_sub
     m = p[M]
-    # compliance: the motor side's mass plus the part of the load the substep's spring force
-    # carries (m_eff = m_M - g; the whole mass M for a stiff spring)
+    # compliance: the mass a held force accelerates over one substep, h / Gamma_v (the motor
+    # side's for a soft spring, the whole mass M for a stiff one)
     comp = p[COMP_RATIO] > 0.0 and m != 0.0
     m_eff = m
-    cc = (1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, m)
+    cc = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, h, 0.0, 0.0, 0.0)
     if comp:
-        cc = compliance_constants(m, p[COMP_RATIO], p[COMP_FREQ], p[COMP_ZETA], h)
-        m_eff = cc[9] - cc[8]
-    visc = p[B] + p[FV]
+        cc = compliance_constants(m, p[COMP_RATIO], p[COMP_FREQ], p[COMP_ZETA], h, p[B])
+        m_eff = h / cc[9]
+    # the damping B of the implicit update (inside the exact map of a compliant axis)
+    b_impl = 0.0 if comp else p[B]
+    visc = b_impl + p[FV]
     # M_eff = M + h (B + fv_dir): the implicit update's effective mass in each direction
     # (divisions only where a term is on: the vector env unpacks a row at every step)
     meff_pos = m_eff + h * max(visc + 0.5 * p[DB], 0.0)
@@ -290,12 +301,13 @@ def constants(p: np.ndarray) -> Plant:
     cog_k = 2.0 * math.pi / p[COG_PERIOD] if cog_on else 0.0
     pd_on = (p[PD_SIN] != 0.0 or p[PD_COS] != 0.0) and p[PD_PERIOD] != 0.0
     pd_k = 2.0 * math.pi / p[PD_PERIOD] if pd_on else 0.0
-    return Plant(h, n_sub, m, p[B], p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
+    return Plant(h, n_sub, m, b_impl, p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
                  p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
                  p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS], cog_k, p[PD_GRAD],
                  p[PD_SIN], p[PD_COS], pd_k, p[PD_CENTER], p[BACKLASH], p[TH_AMP], p[TH_TAU],
                  p[QUANT], p[NOISE], p[MEAS_TABLE] > 0.5, m_eff, comp, cc[0], cc[1], cc[2],
-                 cc[3], cc[4], cc[5], cc[6], cc[7], p[LOG_MOTOR] > 0.5)
+                 cc[3], cc[4], cc[5], cc[6], cc[7], cc[8], cc[9], cc[10], cc[11], cc[12],
+                 cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5)
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -407,6 +419,25 @@ def actuate(c: Plant, buf: np.ndarray, base: int, i_cmd: float) -> tuple[float, 
     return i_app, 0
 
 
+def _compliant_substep(c: Plant, x: float, v: float, z: float, d: float, dv: float,
+                       f_ext: float) -> tuple[float, float, float, float, float, float]:
+    """One substep of the compliant axis: returns ``(x, v, z, d, dv, F_f)``.
+
+    The free two-mass system's motor velocity after ``h``; the implicit update then gives the
+    held motor force ``g`` (actuator, friction, cogging; not the spring, not ``B``) with the
+    mass a held force accelerates, ``m_eff = h / Gamma_v``; then ``x``, ``d``, ``d'`` exactly
+    for ``g`` held over the substep. (A function of its own, not inlined: the rigid substep's
+    compiled code, and so its rounding, stays as it was.)
+    """
+    v_in = c.p_vv * v + c.p_vd * d + c.p_vdv * dv
+    v_new, z, f_fric = _mechanics(c, x, v_in, z, f_ext)
+    g = c.m_eff * (v_new - v_in) * (1.0 / c.h)
+    x_new = x + c.x_v * v + c.x_d * d + c.x_dv * dv + c.x_g * g
+    d_new = c.p_dv * v + c.p_dd * d + c.p_ddv * dv + c.g_d * g
+    dv_new = c.p_rv * v + c.p_rd * d + c.p_rdv * dv + c.g_r * g
+    return x_new, v_new, z, d_new, dv_new, f_fric
+
+
 def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv: float,
             f_motor: float) -> tuple[float, float, float, float, float, float, float]:
     """Advance the mechanics over one sample (``n_sub`` substeps, zero-order hold on the force).
@@ -420,17 +451,11 @@ def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv:
     for _ in range(c.n_sub):
         f_ext = f_motor - position_force(c, x)
         if c.comp:
-            # the spring's mean force over the substep at zero motor acceleration; its part
-            # proportional to the acceleration is in c.m_eff
-            f_ext += c.f_d * d + c.f_dv * dv
-        v_new, z, f_fric = _mechanics(c, x, v, z, f_ext)
-        if c.comp:
-            # exact deflection for the motor acceleration held over the substep
-            a = (v_new - v) * (1.0 / h)
-            d, dv = (c.phi00 * d + c.phi01 * dv + c.gam0 * a,
-                     c.phi10 * d + c.phi11 * dv + c.gam1 * a)
-        # trapezoidal position: exact when the velocity changes linearly over h
-        x += 0.5 * h * (v + v_new)
+            x, v_new, z, d, dv, f_fric = _compliant_substep(c, x, v, z, d, dv, f_ext)
+        else:
+            v_new, z, f_fric = _mechanics(c, x, v, z, f_ext)
+            # trapezoidal position: exact when the velocity changes linearly over h
+            x += 0.5 * h * (v + v_new)
         v = v_new
         f_sum += f_fric
         if c.backlash > 0.0:
@@ -480,7 +505,8 @@ def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray)
         f = position_force(c, x[k])
         if vk != 0.0:
             sigma = 1.0 if vk > 0.0 else -1.0
-            damp = max(c.b + c.fv + 0.5 * sigma * c.db, 0.0)
+            # the row's B (c.b is the implicit update's: 0 on a compliant axis)
+            damp = max(p[B] + c.fv + 0.5 * sigma * c.db, 0.0)
             lo, hi = levels(c, x[k], sigma)
             level = lo if c.inv_vs == 0.0 else stribeck_level(abs(vk), lo, hi, c.vs, c.delta)
             f += damp * vk + sigma * level
@@ -494,6 +520,7 @@ levels = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(levels)
 position_force = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(position_force)
 _mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
 actuate = numba.njit(cache=True, inline="always")(actuate)
+_compliant_substep = numba.njit(cache=True, fastmath=FASTMATH)(_compliant_substep)
 advance = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance)
 sense = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(sense)
 load_position = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(load_position)

@@ -109,6 +109,36 @@ def test_resonance_matches_the_formula() -> None:
         assert abs(f_meas / f_r - 1.0) < 0.02, (ratio, f_r, zeta, f_meas)
 
 
+def test_linear_two_mass_is_exact_for_a_held_force() -> None:
+    """Friction off, the compliant plant is the zero-order-hold discretisation of the
+    two-mass ODE (scipy's), to rounding, at one substep per sample."""
+    from scipy.signal import cont2discrete, dlsim
+
+    rng = np.random.default_rng(7)
+    ts, n = 1e-3, 3000
+    for _ in range(3):
+        mass, ratio = rng.uniform(1.0, 500.0), rng.uniform(0.1, 0.8)
+        f_r, zeta, damp = rng.uniform(10.0, 300.0), rng.uniform(0.0, 0.1), rng.uniform(0, 5)
+        row = _row(mass, ratio, f_r, zeta, ts, 1)
+        row[PL.B] = damp * mass
+        force = mass * rng.standard_normal(n)
+        table, motor = _open_loop(row, force, ts, 1)
+        m_l = ratio * mass
+        m_m = mass - m_l
+        mu = m_m * m_l / mass
+        w = 2 * np.pi * f_r
+        k, c = mu * w * w, 2 * zeta * mu * w
+        a = np.array([[0, 1, 0, 0], [-k / m_m, -(c + damp * mass) / m_m, k / m_m, c / m_m],
+                      [0, 0, 0, 1], [k / m_l, c / m_l, -k / m_l, -c / m_l]])
+        b = np.array([[0.0], [1.0 / m_m], [0.0], [0.0]])
+        cm = np.array([[0.0, 0, 1, 0], [1, 0, 0, 0]])
+        ad, bd, cd, dd, _ = cont2discrete((a, b, cm, np.zeros((2, 1))), ts, "zoh")
+        _, y, _ = dlsim((ad, bd, cd, dd, ts), force)
+        scale = np.ptp(y[:, 0])
+        assert np.max(np.abs(table - y[:, 0])) < 1e-9 * scale
+        assert np.max(np.abs(motor - y[:, 1])) < 1e-9 * scale
+
+
 def test_compliance_is_validated() -> None:
     with pytest.raises(ValueError, match=r"compliance_load_fraction=1.2: expected a value in"):
         Axis().with_effects(compliance_load_fraction=1.2)
