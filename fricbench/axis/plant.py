@@ -280,7 +280,8 @@ def constants(p: np.ndarray) -> Plant:
     # side's for a soft spring, the whole mass M for a stiff one)
     comp = p[COMP_RATIO] > 0.0 and m != 0.0
     m_eff = m
-    cc = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, h, 0.0, 0.0, 0.0)
+    cc: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, h,
+                             0.0, 0.0, 0.0)
     if comp:
         cc = compliance_constants(m, p[COMP_RATIO], p[COMP_FREQ], p[COMP_ZETA], h, p[B])
         m_eff = h / cc[9]
