@@ -163,6 +163,9 @@ class Run:
         Direction changes of the reference (set by the loader).
     units : dict
         Units of ``"time"``, ``"position"`` and ``"effort"``.
+    x_load : ndarray or None, shape (K,)
+        A second measured position on the load side (a linear scale beside the motor encoder
+        that ``x`` then holds), same unit, or None.
     """
 
     t: np.ndarray
@@ -176,6 +179,7 @@ class Run:
     n_reversals: int = 0
     units: dict[str, str] = field(
         default_factory=lambda: {"time": "s", "position": "m", "effort": "N"})
+    x_load: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not self.ts and np.shape(self.t)[0] >= 2:

@@ -63,6 +63,9 @@ class Prepared:
     filter_source : str
         How the derivative filter and decimation were chosen (``"stated"``, ``"default"``,
         ``"sensor resolution"``).
+    x_load : ndarray or None
+        A second, load-side position (a linear scale beside the motor encoder ``x``), m, when
+        the run has one (``--load-position``).
     """
 
     run: RunData
@@ -84,6 +87,7 @@ class Prepared:
     sliding_dec: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     saturation: Saturation | None = None
     filter_source: str = "default"
+    x_load: np.ndarray | None = None
     _dec_cache: dict[object, np.ndarray] = field(default_factory=dict, repr=False)
 
     @property
@@ -159,7 +163,7 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
         cutoff_hz=float(cutoff_hz), folds=folds, folds_dec=folds[::decim],
         noise=noise, stroke=float(np.ptp(run.x)),
         center=float(0.5 * (np.max(run.x) + np.min(run.x))), v_max=float(np.max(np.abs(vr))),
-        n_sub=int(n_sub), saturation=sat, filter_source=source,
+        n_sub=int(n_sub), saturation=sat, filter_source=source, x_load=run.x_load,
     )
     # align the decimated folds with the decimated columns
     n_dec = prep.dec("ones", np.ones(run.n_samples)).shape[0]

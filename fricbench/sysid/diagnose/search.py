@@ -48,6 +48,7 @@ from fricbench.sysid.diagnose.models import (
     GreyBox,
     InverseDynamics,
     NoStartError,
+    Param,
     PositionFit,
     PositionFitResult,
     cascade_effort,
@@ -233,8 +234,14 @@ def _position_sse(y: np.ndarray, prep: Prepared, mask: np.ndarray) -> float:
 def _output_fit(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
                 mask: np.ndarray | None, max_iter: int = 12) -> PositionFitResult:
     outputs = [e for e in model.effects if get_effect(e).kind == "output"]
-    fit = PositionFit(prep, position_params(model, b, controller=False, effects=outputs,
-                                            damping=False), mask, w)
+    # an effect that changes the dynamics (compliance) refits the mass and damping the rigid
+    # inverse dynamics found: they are biased by it
+    dynamic = any(get_effect(e).refits_mass for e in outputs)
+    params = position_params(model, b, controller=False, effects=outputs, damping=dynamic)
+    if dynamic:
+        m = float(model.plant[CL.I_M])
+        params.append(Param(CL.I_M, True, 0.5 * m, 2.0 * m, 1.0))
+    fit = PositionFit(prep, params, mask, w)
     return fit.run(model, max_iter=max_iter)
 
 
@@ -719,7 +726,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         def fold_fit(start: GreyBox, train: np.ndarray,
                      loops: list = loops) -> PositionFitResult:
             best: PositionFitResult | None = None
-            for loop in loops:
+            # an output effect's start may bring its own loop (compliance: a rigid loop fitted
+            # to a compliant axis is far off): it is tried first, boxed like the others
+            for loop in dict.fromkeys([start.controller, *loops]):
                 s0 = start.copy(controller=loop)
                 res = PositionFit(prep, _eval_params(s0, b), train).run(s0, max_iter=budget_iter)
                 if best is None or res.cost < best.cost:

@@ -9,6 +9,7 @@ says). With ``sigma = sgn(v)`` and the friction scale
             + f0                                                   constant force
             + A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)  cogging
     y     = play_beta(x) + d_inf (1 - exp(-t / tau))               backlash, thermal drift
+    m_M a_M = ... + k d + c d' ,  m_L a_L = -k d - c d'             compliance (d = x_L - x_M)
 
 Third parties add effects through the entry-point group ``fricbench.effects`` (a callable
 taking the registry); an effect's parameters must be entries of the plant row
@@ -49,6 +50,9 @@ effect_registry.register("position_dependent_friction",
                          description="friction levels that change along the stroke")
 effect_registry.register("thermal_drift", f"{_PKG}.thermal:ThermalDrift",
                          description="a slow growth of the measured position with time")
+effect_registry.register("compliance", f"{_PKG}.compliance:Compliance",
+                         description="motor and load masses on a spring and a damper (a "
+                                     "resonance)")
 
 
 @cache

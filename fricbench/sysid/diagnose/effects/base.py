@@ -85,6 +85,10 @@ class Effect(ABC):
         Starts of its real position fits (more where the error surface is multimodal).
     always_fitted : bool
         Fitted for real at every step of the position search, whatever its linearised screen.
+    refits_mass : bool
+        An output effect that changes the dynamics between force and motion (a compliant
+        coupling): where the loop is the law identified from the effort, the mass and damping
+        of the rigid inverse dynamics (biased by it) are fitted on the position with it.
     """
 
     name: ClassVar[str]
@@ -102,6 +106,7 @@ class Effect(ABC):
     friction: ClassVar[bool] = False
     n_starts: ClassVar[int] = 1
     always_fitted: ClassVar[bool] = False
+    refits_mass: ClassVar[bool] = False
 
     # -- parameters ----------------------------------------------------------------------------
     def free(self, effects: Sequence[str]) -> tuple[int, ...]:
@@ -184,6 +189,17 @@ class Effect(ABC):
         ``simulate(models, prep, w)`` runs models free (for starts found by simulation).
         """
         raise ValueError(f"effect={self.name!r} is not an output effect")
+
+    # -- open loop -----------------------------------------------------------------------------
+    def open_loop_starts(self, effort: np.ndarray, y: np.ndarray, ts: float
+                         ) -> list[dict[int, float]]:
+        """Starts of its entries from an open-loop run (effort in, position out), or none.
+
+        The open-loop fit (:mod:`fricbench.sysid.diagnose.open_loop`) fits only sizes from
+        shapes fixed by the run's scales, unless an effect finds its shape in the data here
+        (a resonance in the frequency response): then those entries are fitted too.
+        """
+        return []
 
     # -- reports -------------------------------------------------------------------------------
     @abstractmethod

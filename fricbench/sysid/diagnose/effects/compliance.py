@@ -1,0 +1,343 @@
+"""Compliance: motor and load masses coupled by a spring and a damper.
+
+A flexible coupling, a long ball screw or a belt lets the load (the table) lag the motor: the
+axis gains a resonance ``f_r`` (the two masses against each other) and, seen from the motor,
+an anti-resonance ``f_a = f_r sqrt(1 - r)`` (the load ringing against a held motor), where
+``r = m_L / M`` is the load's share of the mass. The plant (:mod:`fricbench.axis.plant`) holds
+the size ``r`` and the shape ``f_r``, ``zeta``; forces (friction, the damping, cogging) stay on
+the motor side.
+
+With one position the sensor is the one fed back: on the motor (semi-closed loop: the motor
+encoder) or on the load (full-closed loop: a linear scale); the start tries both and keeps the
+better, and the fit keeps that side. With two positions (``--load-position``) the logged
+position is the motor's and the second one the load's (:attr:`Prepared.x_load`).
+
+Starts come from the run, not from a guess: the peaks of the residual's spectrum (Welch) and,
+with a load encoder, the resonance of the deflection ``x_L - x_M`` measured directly, each
+tried at a few load shares by simulation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy import signal
+
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
+from fricbench.sysid.diagnose.leastsq import sumsq
+from fricbench.sysid.diagnose.parameters import Bounds, Param
+from fricbench.sysid.diagnose.prepared import Prepared
+
+if TYPE_CHECKING:
+    from fricbench.sysid.diagnose.models import GreyBox
+
+__all__ = ["Compliance", "resonance_candidates", "deflection_resonance", "frequency_range",
+           "frf_candidates"]
+
+MIN_CYCLES = 10.0
+"""Fewest cycles of the lowest resonance the run must span (its frequency, and its damping,
+need a few periods to show)."""
+
+ZETA_RANGE = (2.0e-3, 2.0)
+"""Damping ratios of a coupling: a bound reached means no resonance (the artefact check
+rejects it)."""
+
+START_RATIOS = (0.15, 0.4, 0.7)
+"""Load shares tried at each start frequency."""
+
+START_ZETA = 0.05
+"""Damping ratio of the starts (a typical coupling or screw: 0.01 .. 0.1)."""
+
+EXCITED_SHARE = 1e-4
+"""Frequencies where the effort's power exceeds this share of its peak are excited."""
+
+MIN_COHERENCE = 0.8
+"""Coherence of effort and position a resonance peak of the frequency response needs."""
+
+START_ITERATIONS = 25
+"""Iterations of the refinement of a start with the loop free (runs without an effort)."""
+
+
+def frequency_range(b: Bounds) -> tuple[float, float]:
+    """Resonances a run can show, Hz: ``MIN_CYCLES`` in its duration, up to 0.45 x sampling."""
+    return max(0.5, MIN_CYCLES / max(b.duration, 1e-9)), 0.45 / b.ts
+
+
+def resonance_candidates(r: np.ndarray, ts: float, f_lo: float, f_hi: float,
+                         n_best: int = 3) -> list[float]:
+    """Frequencies (Hz) of the strongest peaks of the spectrum of a residual ``r``.
+
+    Welch's estimate (Hann segments of about 1 s, at least 256 samples) of the residual's
+    *velocity* (``f^2`` times its power: the slow part of a position residual, a friction lag
+    or a drift, would hide any ringing); the peaks within ``[f_lo, f_hi]`` are ranked by
+    prominence (in decades above their surroundings) and refined by a parabola.
+    """
+    r = np.asarray(r, dtype=float)
+    if r.size < 64 or not np.all(np.isfinite(r)) or not np.any(r != r[0]):
+        return []
+    nper = int(min(r.size, max(256, round(1.0 / ts))))
+    f, pxx = signal.welch(r - np.mean(r), fs=1.0 / ts, nperseg=nper, detrend="linear")
+    spec = np.log10(pxx * f**2 + 1e-300)
+    band = (f >= f_lo) & (f <= f_hi)
+    if np.count_nonzero(band) < 3:
+        return []
+    idx, props = signal.find_peaks(np.where(band, spec, -np.inf), prominence=0.3)
+    if idx.size == 0:
+        return []
+    order = np.argsort(props["prominences"])[::-1][:n_best]
+    out = []
+    df = f[1] - f[0]
+    for k in idx[order]:
+        a, b_, c = spec[k - 1], spec[k], spec[k + 1]
+        den = a - 2.0 * b_ + c
+        shift = 0.5 * (a - c) / den if den < 0.0 else 0.0
+        out.append(float(f[k] + float(np.clip(shift, -0.5, 0.5)) * df))
+    return out
+
+
+def deflection_resonance(x_motor: np.ndarray, x_load: np.ndarray, ts: float, f_lo: float,
+                         f_hi: float) -> tuple[float, float] | None:
+    """Anti-resonance ``f_a`` (Hz) and its damping ratio from two encoders, by least squares.
+
+    The deflection ``d = x_L - x_M`` obeys ``d'' + 2 zeta_a w_a d' + w_a^2 d = -a_M`` whatever
+    drives the motor (the load's own equation), so its derivatives and the motor's acceleration
+    (central differences of low-passed signals) give ``w_a^2`` and ``2 zeta_a w_a`` linearly.
+    Returns None when the fit is not physical (no positive stiffness) or out of range.
+    """
+    fc = min(0.4 / ts, 4.0 * f_hi)
+    b, a = signal.butter(4, min(fc * 2.0 * ts, 0.95))
+    d = signal.filtfilt(b, a, np.asarray(x_load, float) - np.asarray(x_motor, float))
+    xm = signal.filtfilt(b, a, np.asarray(x_motor, float))
+    dv = np.gradient(d, ts)
+    da = np.gradient(dv, ts)
+    am = np.gradient(np.gradient(xm, ts), ts)
+    edge = slice(20, -20) if d.size > 100 else slice(None)
+    X = np.column_stack([d[edge], dv[edge]])
+    y = -(da + am)[edge]
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))) or sumsq(X[:, 0]) <= 0.0:
+        return None
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    wa2, c2 = float(coef[0]), float(coef[1])
+    if not wa2 > 0.0:
+        return None
+    wa = math.sqrt(wa2)
+    f_a = wa / (2.0 * math.pi)
+    if not f_lo <= f_a <= f_hi:
+        return None
+    return f_a, float(np.clip(c2 / (2.0 * wa), *ZETA_RANGE))
+
+
+def frf_candidates(effort: np.ndarray, y: np.ndarray, ts: float, f_lo: float, f_hi: float,
+                   n_best: int = 2) -> list[tuple[float, float | None]]:
+    """Resonances in the frequency response of an open-loop run, Hz, with the load share
+    their anti-resonance gives (or None without one).
+
+    ``G = S_uy / S_uu`` (Welch, segments of about 1 s); a rigid mass gives a flat
+    ``w^2 |G| = 1 / M``, a compliant axis a peak at ``f_r`` and, seen from the motor, a dip at
+    ``f_a = f_r sqrt(1 - r)`` below it.
+    """
+    u = np.asarray(effort, float)
+    x = np.asarray(y, float)
+    if u.size < 64 or not (np.all(np.isfinite(u)) and np.all(np.isfinite(x))):
+        return []
+    nper = int(min(u.size, max(256, round(1.0 / ts))))
+    f, puu = signal.welch(u, fs=1.0 / ts, nperseg=nper, detrend="linear")
+    _, pyy = signal.welch(x, fs=1.0 / ts, nperseg=nper, detrend="linear")
+    _, puy = signal.csd(u, x, fs=1.0 / ts, nperseg=nper, detrend="linear")
+    # the excited band (where the effort has power), and within it the frequencies where the
+    # position follows the effort (coherence): a peak elsewhere is noise over no input
+    excited = (f >= f_lo) & (f <= f_hi) & (puu > EXCITED_SHARE * np.max(puu))
+    coh = np.abs(puy) ** 2 / np.maximum(puu * pyy, 1e-300)
+    if np.count_nonzero(excited) < 3:
+        return []
+    mag = np.log10(np.abs(puy) / np.maximum(puu, 1e-300) * (2.0 * np.pi * f) ** 2 + 1e-300)
+    peaks, props = signal.find_peaks(np.where(excited & (coh > MIN_COHERENCE), mag, -np.inf),
+                                     prominence=0.2)
+    dips, _ = signal.find_peaks(np.where(excited, -mag, -np.inf), prominence=0.2)
+    out: list[tuple[float, float | None]] = []
+    for k in peaks[np.argsort(props["prominences"])[::-1][:n_best]]:
+        below = [d for d in dips if 0.2 * f[k] < f[d] < f[k]]
+        ratio = None
+        if below:
+            d = max(below, key=lambda j: -mag[j])
+            ratio = float(np.clip(1.0 - (f[d] / f[k]) ** 2, 0.02, 0.9))
+        out.append((float(f[k]), ratio))
+    return out
+
+
+def rigid_from_frf(effort: np.ndarray, y: np.ndarray, ts: float, f_lo: float,
+                   f_hi: float) -> tuple[float, float] | None:
+    """Mass and viscous damping of the rigid body below ``f_hi``, from the frequency
+    response: ``1 / G = -M w^2 + j B w`` by least squares on the coherent, excited bins.
+
+    Below a resonance the two masses move as one, so this start of ``M`` and ``B`` does not
+    suffer the resonance's phase the way filtered inverse dynamics does."""
+    u = np.asarray(effort, float)
+    x = np.asarray(y, float)
+    nper = int(min(u.size, max(256, round(1.0 / ts))))
+    f, puu = signal.welch(u, fs=1.0 / ts, nperseg=nper, detrend="linear")
+    _, pyy = signal.welch(x, fs=1.0 / ts, nperseg=nper, detrend="linear")
+    _, puy = signal.csd(u, x, fs=1.0 / ts, nperseg=nper, detrend="linear")
+    coh = np.abs(puy) ** 2 / np.maximum(puu * pyy, 1e-300)
+    sel = ((f > max(f_lo, 0.0)) & (f <= f_hi) & (puu > EXCITED_SHARE * np.max(puu))
+           & (coh > MIN_COHERENCE) & (np.abs(puy) > 0.0))
+    if np.count_nonzero(sel) < 3:
+        return None
+    w = 2.0 * np.pi * f[sel]
+    inv_g = puu[sel] / puy[sel]
+    # Re(1/G) = -M w^2, Im(1/G) = B w (one column each, weighted to relative errors)
+    m = float(-np.sum(inv_g.real * w**2) / np.sum(w**4))
+    b = float(np.sum(inv_g.imag * w) / np.sum(w**2))
+    if not (math.isfinite(m) and m > 0.0 and math.isfinite(b)):
+        return None
+    return m, max(b, 0.0)
+
+
+class Compliance(Effect):
+    """Two masses on a spring and a damper: ``m_M a_M = F - F_f + k d + c d'``,
+    ``m_L a_L = -k d - c d'`` (``d = x_L - x_M``); parameters ``r = m_L / M``, ``f_r``, ``zeta``.
+    """
+
+    name = "compliance"
+    kind = "output"
+    summary = ("a compliant coupling: motor and load masses on a spring and a damper (a "
+               "resonance and an anti-resonance)")
+    parameters = (CL.I_CR, CL.I_CF, CL.I_CZ)
+    shape_parameters = (CL.I_CF, CL.I_CZ)
+    periodic = False
+    always_fitted = True
+    refits_mass = True
+
+    def available(self, prep: Prepared) -> bool:
+        # the run must span MIN_CYCLES of a resonance below the top of the band
+        return prep.duration * 0.45 / prep.ts >= 2.0 * MIN_CYCLES
+
+    def bounds(self, i: int, value: float, b: Bounds) -> Param:
+        if i == CL.I_CF:
+            lo, hi = frequency_range(b)
+            return Param(i, True, lo, hi, 1.0)
+        if i == CL.I_CZ:
+            return Param(i, True, ZETA_RANGE[0], ZETA_RANGE[1], 1.0)
+        return Param(i, False, 0.0, 0.95, 0.1)
+
+    def clip(self, i: int, value: float, b: Bounds) -> float:
+        if i == CL.I_CF:
+            lo, hi = frequency_range(b)
+            return float(np.clip(value, 1.05 * lo, 0.95 * hi))
+        if i == CL.I_CZ:
+            return float(np.clip(value, 1.5 * ZETA_RANGE[0], 0.5 * ZETA_RANGE[1]))
+        return float(np.clip(value, 0.02, 0.9))
+
+    def probe_step(self, i: int, value: float, b: Bounds) -> float:
+        return 0.1 if i == CL.I_CR else 0.05 * abs(value)
+
+    def switched_on(self, p: np.ndarray, prep: Prepared) -> np.ndarray:
+        q = p.copy()
+        # the one position is the fed-back one (a semi-closed loop until the start says)
+        q[CL.I_LOG_MOTOR] = 1.0
+        q[CL.I_MEAS_TABLE] = 0.0
+        if q[CL.I_CR] <= 0.0:
+            q[CL.I_CR] = START_RATIOS[0]
+        return q
+
+    def zeroed(self, p: np.ndarray, effects: Sequence[str]) -> np.ndarray:
+        q = super().zeroed(p, effects)
+        # the rigid axis of the diagnosis: feedback from the motor, the table logged
+        q[CL.I_LOG_MOTOR] = 0.0
+        q[CL.I_MEAS_TABLE] = 0.0
+        return q
+
+    def _frequencies(self, prep: Prepared, b: Bounds, y: np.ndarray) -> list[float]:
+        lo, hi = frequency_range(b)
+        out: list[float] = []
+        if prep.x_load is not None:
+            found = deflection_resonance(prep.x, prep.x_load, prep.ts, lo, hi)
+            if found is not None:
+                # f_r = f_a / sqrt(1 - r): the shares of the starts give the resonance
+                out.append(found[0])
+        out += resonance_candidates(prep.x - y, prep.ts, lo, hi)
+        return [f for k, f in enumerate(out) if all(abs(f / g - 1.0) > 0.02 for g in out[:k])]
+
+    def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
+               y: np.ndarray) -> list[Probe]:
+        return [({CL.I_CR: START_RATIOS[0]}, {CL.I_CF: f, CL.I_CZ: START_ZETA})
+                for f in self._frequencies(prep, b, y)[:2]]
+
+    def output_start(self, model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
+                     y: np.ndarray, mask: np.ndarray, simulate: SimulateFn) -> GreyBox:
+        """The best start on ``mask``, by simulation, of the spectral peaks at a few load
+        shares and both sensor sides (one position) or the motor side (two positions).
+
+        Without an effort the loop is a cascade fitted to the position, and a rigid loop fitted
+        to a compliant axis is far off (it slows down to follow the ringing): the start is then
+        sought under the standard starting loops too, and refined with the loop free on
+        ``mask`` (the search judges it on the other samples).
+        """
+        from fricbench.sysid.diagnose.baselines import starting_controllers
+        from fricbench.sysid.diagnose.controllers import CascadeController
+        from fricbench.sysid.diagnose.models import PositionFit, position_params
+
+        freqs = self._frequencies(prep, b, y)
+        lo, hi = frequency_range(b)
+        if not freqs:
+            freqs = list(np.geomspace(max(lo, 2.0), 0.5 * hi, 4))
+        sides = ((1.0, 0.0),) if prep.x_load is not None else ((1.0, 0.0), (0.0, 1.0))
+        cascade = isinstance(model.controller, CascadeController)
+        loops = [model.controller] + (starting_controllers(prep.ts) if cascade else [])
+        rows = []
+        for f in freqs[:3]:
+            for ratio in START_RATIOS:
+                # a peak lies between the anti-resonance and the resonance
+                for f_r in (f, f / math.sqrt(1.0 - ratio)):
+                    if not lo < f_r < hi:
+                        continue
+                    for log_motor, table in sides:
+                        q = model.plant.copy()
+                        q[CL.I_CR], q[CL.I_CF], q[CL.I_CZ] = ratio, f_r, START_ZETA
+                        q[CL.I_LOG_MOTOR], q[CL.I_MEAS_TABLE] = log_motor, table
+                        rows.append(q)
+        if not rows:
+            return model
+        models = [model.copy(plant=q, controller=loop) for loop in loops for q in rows]
+        ys, _, _ = simulate(models, prep, w)
+        sse = []
+        for yy in ys:
+            r = (prep.x - yy)[mask]
+            sse.append(sumsq(r) if np.all(np.isfinite(r)) else math.inf)
+        best = models[int(np.argmin(sse))]
+        if not cascade:
+            return best
+        params = position_params(best, b, controller=True, effects=[self.name])
+        return PositionFit(prep, params, mask, w).run(best, max_iter=START_ITERATIONS).model
+
+    def open_loop_starts(self, effort: np.ndarray, y: np.ndarray, ts: float
+                         ) -> list[dict[int, float]]:
+        """The frequency response's resonances: on a motor encoder at the load share of their
+        anti-resonance (else at a few shares), on a load-side sensor at a few shares; with
+        the rigid body's mass and damping from the response below them."""
+        lo = max(0.5, MIN_CYCLES / max(y.size * ts, 1e-9))
+        out: list[dict[int, float]] = []
+        for f_r, ratio in frf_candidates(effort, y, ts, lo, 0.45 / ts):
+            # a motor encoder sees the anti-resonance, whose depth gives the load share; a
+            # load-side sensor sees none (a dip may be noise): both are tried
+            pairs = [(r, 0.0) for r in START_RATIOS]
+            pairs += [(ratio, 1.0)] if ratio is not None else [(r, 1.0) for r in START_RATIOS]
+            # the rigid body from the response well below the resonance (and anti-resonance)
+            rigid = rigid_from_frf(effort, y, ts, 0.0, 0.3 * f_r)
+            body = {CL.I_M: rigid[0], CL.I_B: rigid[1]} if rigid is not None else {}
+            out += [{CL.I_CR: r, CL.I_CF: f_r, CL.I_CZ: START_ZETA, CL.I_LOG_MOTOR: side,
+                     **body} for r, side in pairs]
+        return out
+
+    def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
+        ratio, f_r = float(p[CL.I_CR]), float(p[CL.I_CF])
+        return {"load_fraction": ratio, "f_r_hz": f_r,
+                "f_a_hz": f_r * math.sqrt(max(1.0 - ratio, 0.0)),
+                "zeta": float(p[CL.I_CZ]),
+                # 1: that position is the load's, 0: the motor's
+                "logged_on_load": 1.0 - float(p[CL.I_LOG_MOTOR]),
+                "feedback_on_load": float(p[CL.I_MEAS_TABLE])}
