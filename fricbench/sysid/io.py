@@ -109,7 +109,7 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                     *, source: str = "<arrays>", names: dict[str, str | None] | None = None,
                     line_numbers: np.ndarray | None = None,
                     effort_required: bool = True, position_unit: str = "m",
-                    open_loop: bool = False) -> RunData:
+                    open_loop: bool = False, x_load: np.ndarray | None = None) -> RunData:
     """Check arrays of one run and wrap them in a :class:`RunData`.
 
     Parameters
@@ -136,6 +136,9 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     open_loop : bool
         An open-loop run without a reference (``x_ref`` is the measured position): the check
         that reference and position differ is skipped.
+    x_load : array_like, shape (K,), optional
+        A second, load-side position (a linear scale beside the motor encoder ``x``), in the
+        same unit as ``x``.
 
     Returns
     -------
@@ -166,13 +169,28 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         labels={key: f"column {name!r}" for key, name in names.items()},
         too_short_why=" (the diagnosis fits a dynamic model and holds part of the run out)",
         max_jitter=TIME_JITTER_TOLERANCE, units=units, error=DataError)
+    if x_load is not None:
+        # the load encoder's column: one finite value per row, like the others
+        names.setdefault("x_load", "x_load")
+        xl_arr = np.asarray(x_load, dtype=float)
+        if xl_arr.ndim != 1 or xl_arr.shape[0] != clean["t"].shape[0]:
+            raise DataError(f"{source}: column {names['x_load']!r} has shape {xl_arr.shape}: "
+                            f"expected one value per row ({clean['t'].shape[0]})")
+        bad = np.flatnonzero(~np.isfinite(xl_arr))
+        if bad.size:
+            i = int(bad[0])
+            raise DataError(f"{source}: {where(i)}, column {names['x_load']!r}: "
+                            f"value {float(xl_arr[i])!r} is not finite ({bad.size} such rows); "
+                            "remove or fill them")
+        clean["x_load"] = xl_arr
     ts_lo, ts_hi = SAMPLE_TIME_RANGE
     if not ts_lo <= ts <= ts_hi:
         raise DataError(f"{source}: column {names['t']!r}: sample time {ts:.6g} s (the median "
                         f"step) is outside [{ts_lo:g}, {ts_hi:g}] s, the sample times of a "
                         "servo-axis log (1 MHz to 10 Hz); is the column in seconds?")
     xr, xm = clean["x_ref"], clean["x"]
-    for key, arr in (("x_ref", xr), ("x", xm)):
+    xl = clean.get("x_load")
+    for key, arr in (("x_ref", xr), ("x", xm)) + ((("x_load", xl),) if xl is not None else ()):
         i = int(np.argmax(np.abs(arr)))
         if abs(arr[i]) > POSITION_LIMIT:
             raise DataError(f"{source}: {where(i)}, column {names[key]!r}: position {arr[i]:.6g} "
@@ -243,8 +261,13 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
             "backlash cannot be separated from a constant force; coulomb_friction, "
             "stribeck_friction, asymmetric_friction and backlash are not tried"
         )
+    if xl is not None and float(np.ptp(xl)) < MIN_STROKE:
+        raise DataError(f"{source}: column {names['x_load']!r} (the load position) moves by "
+                        f"{float(np.ptp(xl)):.3g} {si}: less than the {MIN_STROKE:g} {si} a "
+                        "diagnosis needs; check the column choice (--load-position) and unit")
     return RunData(t=clean["t"], x_ref=xr, x=xm, u=uu, ts=ts, source=source,
-                   columns=names, warnings=tuple(warnings), n_reversals=n_rev, units=units)
+                   columns=names, warnings=tuple(warnings), n_reversals=n_rev, units=units,
+                   x_load=xl)
 
 
 # -- reading ------------------------------------------------------------------------------------
@@ -340,7 +363,8 @@ digits that is not a header name)."""
 def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
              reference: Column | None = "x_ref", position: Column = "x",
              effort: Column | None = "u", effort_required: bool = False,
-             sample_time: float | None = None, position_unit: str = "m") -> RunData:
+             sample_time: float | None = None, position_unit: str = "m",
+             load_position: Column | None = None) -> RunData:
     """Read a run from a CSV file and validate it.
 
     The file (or a pipe) is read line by line: at most :data:`MAX_FILE_BYTES` bytes,
@@ -374,6 +398,10 @@ def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
         Unit of the position columns: ``m``, ``mm``, ``um`` (linear axis) or ``rad``, ``deg``
         (rotary axis). Positions are converted to m or rad on reading; the scale checks of
         :func:`validate_arrays` apply to the converted values.
+    load_position : str or int, optional
+        Column of a second, load-side position (a linear scale, or the load's encoder behind
+        a coupling), in ``position_unit``; ``position`` is then the motor encoder. Required
+        when given (a missing column is an error).
 
     Returns
     -------
@@ -395,7 +423,8 @@ def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
     with _open(path) as fh:
         return _parse(_lines(fh, path), path, time=time, reference=reference,
                       position=position, effort=effort, effort_required=effort_required,
-                      sample_time=sample_time, to_si=unit.to_si, position_unit=unit.name)
+                      sample_time=sample_time, to_si=unit.to_si, position_unit=unit.name,
+                      load_position=load_position)
 
 
 def _column_index(spec: Column, header: list[str]) -> int | None:
@@ -435,7 +464,7 @@ def _number(cell: str, path: str, line_no: int, name: str, delimiter: str) -> fl
 def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | None,
            reference: Column | None, position: Column, effort: Column | None,
            effort_required: bool, sample_time: float | None = None, to_si: float = 1.0,
-           position_unit: str = "m") -> RunData:
+           position_unit: str = "m", load_position: Column | None = None) -> RunData:
     """Header, columns and numbers of the lines of a run file (see :func:`load_run`)."""
     seen_text = seen_line = False
     for line_no, text, complete in lines:
@@ -468,6 +497,8 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
     specs: dict[str, Column] = {"x": position}
     if reference is not None:
         specs["x_ref"] = reference
+    if load_position is not None:
+        specs["x_load"] = load_position
     t_idx = _column_index(time, header) if time is not None else None
     if sample_time is not None and t_idx is not None:
         raise DataError(f"{path}: the file has a time column {header[t_idx]!r} and a sample "
@@ -497,7 +528,8 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
                      "with an effort column")
         raise DataError(f"{path}: missing column(s) {', '.join(map(repr, missing))}; the file "
                         f"has {', '.join(map(repr, header))} (choose with --time, --reference, "
-                        f"--position, --effort: a name or a 0-based index{hint})")
+                        f"--position, --load-position, --effort: a name or a 0-based "
+                        f"index{hint})")
     if len(set(header)) != len(header):
         dup = sorted({h for h in header if header.count(h) > 1})
         raise DataError(f"{path}: duplicate column name(s) {dup} in the header")
@@ -554,4 +586,6 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
                            np.asarray(data["u"]) if "u" in data else None,
                            source=path, names=names, line_numbers=np.asarray(line_numbers),
                            effort_required=effort_required, position_unit=position_unit,
-                           open_loop="x_ref" not in data)
+                           open_loop="x_ref" not in data,
+                           x_load=(to_si * np.asarray(data["x_load"]) if "x_load" in data
+                                   else None))

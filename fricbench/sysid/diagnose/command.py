@@ -53,6 +53,11 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
                       help="reference position column (default: x_ref)")
     cols.add_argument("--position", default="x",
                       help="measured position column (default: x)")
+    cols.add_argument("--load-position", default=None, metavar="COL",
+                      help="a second, load-side position column (a linear scale, or the "
+                           "load's encoder behind a coupling), in --position-unit; --position "
+                           "is then the motor encoder, and the compliance effect is fitted to "
+                           "both")
     cols.add_argument("--position-unit", default="m", choices=("m", "mm", "um", "rad", "deg"),
                       help="unit of the position columns: m, mm, um (linear axis) or rad, deg "
                            "(rotary axis); converted to m or rad inside, figures printed in "
@@ -207,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
     cols = dict(time=args.time or "t", reference=None if open_loop else args.reference,
                 position=args.position,
                 effort=effort, effort_required=required, sample_time=args.sample_time,
-                position_unit=args.position_unit)
+                position_unit=args.position_unit, load_position=args.load_position)
     try:
         run_data = load_run(args.data, **cols)
         other = load_run(args.validate, **cols) if args.validate else None

@@ -77,18 +77,21 @@ class GreyBox:
 
 def simulate_models(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None = None,
                     noise: np.ndarray | None = None, quant: float = 0.0,
+                    other: np.ndarray | None = None,
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Free-run position of several models on ``prep``'s reference, in parallel.
 
-    ``noise`` (m) and ``quant`` (m) add sensor noise and quantisation (for the noise floor).
-    Returns ``(y, u, status)`` with shapes (N, K), (N, K), (N,).
+    ``noise`` (m) and ``quant`` (m) add sensor noise and quantisation (for the noise floor);
+    ``other`` (N, K), when given, receives the other encoder's position (the load's when the
+    model logs the motor). Returns ``(y, u, status)`` with shapes (N, K), (N, K), (N,).
     """
-    return simulate_inputs(models, prep.inputs, prep.n_sub, w, noise, quant)
+    return simulate_inputs(models, prep.inputs, prep.n_sub, w, noise, quant, other)
 
 
 def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
                     w: np.ndarray | None = None, noise: np.ndarray | None = None,
-                    quant: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    quant: float = 0.0, other: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`simulate_models` on bare loop inputs (a reference without a measured run)."""
     n = int(inp.t.shape[0])
     cache: dict[object, tuple] = {}
@@ -115,7 +118,7 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
     P = np.stack([m.plant for m in models])
     return CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
                              v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
-                             quant=quant)
+                             quant=quant, other=other)
 
 
 def simulate_position(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,
@@ -295,31 +298,42 @@ class PositionFit:
         self.scale = max(prep.noise.rms, 1e-9)
         self._cache: tuple[np.ndarray, np.ndarray] | None = None
 
-    def _resid(self, y: np.ndarray) -> np.ndarray:
+    def _resid(self, y: np.ndarray, y_load: np.ndarray | None = None) -> np.ndarray:
         r = (self.prep.x - y)[self.mask] / self.scale
+        if y_load is not None and self.prep.x_load is not None:
+            # a load encoder: its error joins the motor encoder's, at the same noise scale
+            r = np.concatenate([r, (self.prep.x_load - y_load)[self.mask] / self.scale])
         bad = ~np.isfinite(r)
         if bad.any():
             r = np.where(bad, _DIVERGED, r)
         return r
 
+    def _simulate(self, models: list[GreyBox]) -> tuple[np.ndarray, np.ndarray | None]:
+        """Logged positions of ``models`` and, with a load encoder, their load positions."""
+        other = None
+        if self.prep.x_load is not None:
+            other = np.empty((len(models), self.prep.n))
+        ys, _, _ = simulate_models(models, self.prep, self.w, other=other)
+        return ys, other
+
     def run(self, model: GreyBox, max_iter: int = 15) -> PositionFitResult:
         """Fit from ``model``'s current values; returns the fitted model and its position."""
         if not self.params:
-            y, _ = simulate_position(model, self.prep, self.w)
-            r = self._resid(y)
-            return PositionFitResult(model, y, 0.5 * sumsq(r), 0)
+            ys, loads = self._simulate([model])
+            r = self._resid(ys[0], None if loads is None else loads[0])
+            return PositionFitResult(model, ys[0], 0.5 * sumsq(r), 0)
         theta0, lo, hi, steps = _lm_box(self.params, model)
         last: dict[str, np.ndarray] = {}
 
         def residuals(thetas: np.ndarray) -> np.ndarray:
-            ys, _, _ = simulate_models(_models_at(model, self.params, thetas), self.prep,
-                                       self.w)
+            ys, loads = self._simulate(_models_at(model, self.params, thetas))
             if thetas.shape[0] == 1:
                 last["theta"], last["y"] = thetas[0].copy(), ys[0]
             else:
                 last.setdefault("batch", ys)
                 last["batch"], last["thetas"] = ys, thetas.copy()
-            return np.array([self._resid(y) for y in ys])
+            return np.array([self._resid(y, None if loads is None else loads[i])
+                             for i, y in enumerate(ys)])
 
         sol = bounded_least_squares(residuals, theta0, lo, hi, steps, max_iter=max_iter)
         fitted = _models_at(model, self.params, sol.x[None, :])[0]
