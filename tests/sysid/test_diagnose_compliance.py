@@ -119,3 +119,29 @@ def test_the_spectrum_finds_a_ringing_and_the_deflection_its_frequency() -> None
     x_m, x_l, _ = closed_loop(axis, 0.05 * moves(rng, N, TS), TS, rng, noise=1e-9)
     f_a, zeta_a = deflection_resonance(x_m, x_l, TS, 2.0, 450.0)
     assert abs(f_a / axis.f_a - 1.0) < 0.05
+
+
+def test_the_command_reads_a_load_position_in_mm_and_names_a_missing_column(
+        tmp_path, capsys) -> None:
+    import json
+
+    from fricbench.sysid.diagnose.command import EXIT_BAD_INPUT, EXIT_OK, main
+
+    rng = np.random.default_rng(112)
+    axis = draw(rng)
+    x_ref = 0.05 * moves(rng, N, TS)
+    x_m, x_l, u = closed_loop(axis, x_ref, TS, rng)
+    path = tmp_path / "two_encoders.csv"
+    np.savetxt(path, np.column_stack([np.arange(N) * TS, 1e3 * x_ref, 1e3 * x_m, u,
+                                      1e3 * x_l]),
+               delimiter=",", header="t,x_ref,x,u,scale", comments="")
+    out = tmp_path / "out.json"
+    assert main([str(path), "--position-unit", "mm", "--load-position", "scale", "--json",
+                 str(out), "--quiet"]) == EXIT_OK
+    report = json.loads(out.read_text())
+    assert report["effects"] == ["compliance"]
+    assert abs(_compliance(report)["f_r_hz"] / axis.f_r - 1.0) < 0.05
+    capsys.readouterr()
+    assert main([str(path), "--load-position", "linear_scale", "--quiet"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "missing column(s) 'linear_scale'" in err and "--load-position" in err

@@ -35,7 +35,7 @@ def prep():  # type: ignore[no-untyped-def]
 def test_builtin_effects_in_search_order() -> None:
     assert EFFECT_NAMES == ("coulomb_friction", "stribeck_friction", "asymmetric_friction",
                             "force_offset", "backlash", "cogging", "position_dependent_friction",
-                            "thermal_drift")
+                            "thermal_drift", "compliance")
     assert effect_names()[: len(EFFECT_NAMES)] == EFFECT_NAMES
 
 

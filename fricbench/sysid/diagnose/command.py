@@ -370,6 +370,13 @@ def _run_open_loop(args: argparse.Namespace, run_data: RunData, other: RunData |
               file=sys.stderr)
         return EXIT_FAILED
     report["source"] = run_data.source
+    if run_data.x_load is not None:
+        note = ("--load-position: the open-loop fit uses the motor position only; the load "
+                "position is not used open loop yet")
+        print(f"warning: {note}", file=sys.stderr)
+        warnings = report.get("warnings")
+        if isinstance(warnings, list):
+            warnings.append(note)
     bad = _non_finite(report)
     if bad:
         print(f"error: the open-loop diagnosis gave non-finite results ({bad[0]}): no report "

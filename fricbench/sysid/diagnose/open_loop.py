@@ -31,6 +31,7 @@ from fricbench.axis import plant as PL
 from fricbench.axis.open_loop import initial_state, simulate_open_loop
 from fricbench.run_events import motion_sign
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
+from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
@@ -159,7 +160,7 @@ def _bounds(i: int, ts: float) -> tuple[float, float]:
         # what the samples can show: up to 0.45 x the sampling rate
         return 0.5, 0.45 / ts
     if i == PL.COMP_ZETA:
-        return 1e-3, 2.0
+        return ZETA_RANGE
     if i == PL.M:
         return 1e-12, np.inf
     if i in (PL.FC, PL.FS_EXCESS):

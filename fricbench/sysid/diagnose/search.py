@@ -236,10 +236,10 @@ def _output_fit(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
     outputs = [e for e in model.effects if get_effect(e).kind == "output"]
     # an effect that changes the dynamics (compliance) refits the mass and damping the rigid
     # inverse dynamics found: they are biased by it
-    dynamic = any(get_effect(e).refits_mass for e in outputs)
+    m = float(model.plant[CL.I_M])
+    dynamic = any(get_effect(e).refits_mass for e in outputs) and m > 0.0 and math.isfinite(m)
     params = position_params(model, b, controller=False, effects=outputs, damping=dynamic)
     if dynamic:
-        m = float(model.plant[CL.I_M])
         params.append(Param(CL.I_M, True, 0.5 * m, 2.0 * m, 1.0))
     fit = PositionFit(prep, params, mask, w)
     return fit.run(model, max_iter=max_iter)
