@@ -90,6 +90,10 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "quantization": "the sensor step the diagnosis detected (effects.quantization)",
     "noise_std": "left at 0: the bench adds its own encoder noise",
     "measure_table": ("effects", "measurement", ""),
+    "compliance_load_fraction": ("effects", "compliance_load_fraction", ""),
+    "compliance_frequency": ("effects", "compliance_frequency", ""),
+    "compliance_damping": ("effects", "compliance_damping", ""),
+    "log_motor": "the logged side: an env observes the load (table) position",
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -99,7 +103,9 @@ _POLAR = {"cog_sin": "cog_cos", "pd_sin": "pd_cos"}
 # an effect's columns whose off value makes the others irrelevant (their defaults are kept)
 _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_cos"),
               "thermal_tau": ("thermal_amplitude",), "vs": ("fs_excess",),
-              "delta": ("fs_excess",), "pd_center": ("pd_gradient",)}
+              "delta": ("fs_excess",), "pd_center": ("pd_gradient",),
+              "compliance_frequency": ("compliance_load_fraction",),
+              "compliance_damping": ("compliance_load_fraction",)}
 
 class TwinError(ValueError):
     """The diagnosis cannot be written as an env (the message names why)."""
