@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -45,6 +46,7 @@ def validate_run_arrays(
     max_jitter: float = 1e-6,
     units: Mapping[str, str] | None = None,
     error: type[ValueError] = ValueError,
+    extra: Mapping[str, Any] | None = None,
 ) -> tuple[dict[str, np.ndarray], float]:
     """Check the arrays of one run: the one validator of every path that builds a :class:`Run`.
 
@@ -71,11 +73,15 @@ def validate_run_arrays(
         The run's units: ``"time"`` and ``"position"`` must be SI (:data:`RUN_UNITS`).
     error : type, optional
         The ``ValueError`` subclass raised (the loader's ``DataError``).
+    extra : mapping, optional
+        Further per-sample arrays checked alike (a load encoder's position, ``x_load``),
+        named in messages by ``labels`` (the key by default).
 
     Returns
     -------
     arrays : dict of ndarray
-        ``t``, ``x_ref``, ``x`` (and ``u`` when given) as float arrays.
+        ``t``, ``x_ref``, ``x`` (and ``u`` and the ``extra`` arrays when given) as float
+        arrays.
     ts : float
         The median time step, s (NaN with fewer than two samples).
 
@@ -86,7 +92,8 @@ def validate_run_arrays(
         strictly increasing or not uniformly sampled, a unit that is not SI.
     """
     prefix = f"{source}: " if source else ""
-    names = {"t": "t", "x_ref": "x_ref", "x": "x", "u": "u", **(labels or {})}
+    names = {"t": "t", "x_ref": "x_ref", "x": "x", "u": "u",
+             **{key: key for key in (extra or {})}, **(labels or {})}
     for key, allowed in RUN_UNITS.items():
         if units is not None and units.get(key) not in allowed:
             raise error(f"{prefix}units[{key!r}]={units.get(key)!r}: expected "
@@ -94,6 +101,7 @@ def validate_run_arrays(
     arrays = {"t": t, "x_ref": x_ref, "x": x}
     if u is not None:
         arrays["u"] = u
+    arrays.update(extra or {})
     clean: dict[str, np.ndarray] = {}
     for key, value in arrays.items():
         arr = np.asarray(value, dtype=float)

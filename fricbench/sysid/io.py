@@ -164,25 +164,14 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         return f"line {int(line_numbers[i])}" if line_numbers is not None else f"sample {i}"
 
     units = {"time": "s", "position": si, "position_logged": unit.name, "effort": "N"}
+    if x_load is not None:
+        names.setdefault("x_load", "x_load")
     clean, ts = validate_run_arrays(
         t, x_ref, x, u, source=source, where=where, min_samples=MIN_SAMPLES,
         labels={key: f"column {name!r}" for key, name in names.items()},
         too_short_why=" (the diagnosis fits a dynamic model and holds part of the run out)",
-        max_jitter=TIME_JITTER_TOLERANCE, units=units, error=DataError)
-    if x_load is not None:
-        # the load encoder's column: one finite value per row, like the others
-        names.setdefault("x_load", "x_load")
-        xl_arr = np.asarray(x_load, dtype=float)
-        if xl_arr.ndim != 1 or xl_arr.shape[0] != clean["t"].shape[0]:
-            raise DataError(f"{source}: column {names['x_load']!r} has shape {xl_arr.shape}: "
-                            f"expected one value per row ({clean['t'].shape[0]})")
-        bad = np.flatnonzero(~np.isfinite(xl_arr))
-        if bad.size:
-            i = int(bad[0])
-            raise DataError(f"{source}: {where(i)}, column {names['x_load']!r}: "
-                            f"value {float(xl_arr[i])!r} is not finite ({bad.size} such rows); "
-                            "remove or fill them")
-        clean["x_load"] = xl_arr
+        max_jitter=TIME_JITTER_TOLERANCE, units=units, error=DataError,
+        extra=None if x_load is None else {"x_load": x_load})
     ts_lo, ts_hi = SAMPLE_TIME_RANGE
     if not ts_lo <= ts <= ts_hi:
         raise DataError(f"{source}: column {names['t']!r}: sample time {ts:.6g} s (the median "
