@@ -12,15 +12,17 @@ Run ``python -m fricbench.bench.emps_protocol [--data DIR] [--json OUT.json]``.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from fricbench._atomic import atomic_write
 from fricbench.axis import plant as PL
 from fricbench.sysid.diagnose.open_loop import (
     OpenLoopFit,
@@ -61,6 +63,7 @@ class ProtocolResult:
     idim_train: dict[str, float]
     idim_test: dict[str, float]
     elapsed_s: float
+    traces: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     def to_json(self) -> dict[str, object]:
         """The JSON report: model, errors in mm and R^2, references."""
@@ -123,7 +126,43 @@ def run_protocol(data_dir: str | os.PathLike[str] | None = None, *, folds: int =
     return ProtocolResult(fit, free_run_errors(y_tr, q_tr, N_INIT),
                           free_run_errors(y_te, q_te, N_INIT),
                           free_run_errors(yi_tr, q_tr, N_INIT),
-                          free_run_errors(yi_te, q_te, N_INIT), time.perf_counter() - t0)
+                          free_run_errors(yi_te, q_te, N_INIT), time.perf_counter() - t0,
+                          {"t": ts * np.arange(q_te.shape[0]), "q_test": q_te,
+                           "y_test": y_te, "y_idim_test": yi_te})
+
+
+def plot_test_run(res: ProtocolResult, path: str | os.PathLike[str]) -> None:
+    """The test run simulated from its force: measured and simulated position (mm) and the
+    error of the model and of the published IDIM-LS model, as a PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    tr = res.traces
+    t, q = tr["t"], tr["q_test"]
+    fig = Figure(figsize=(9, 6), dpi=100)
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    ax1.plot(t, 1e3 * q, "k", lw=1.2, label="measured q")
+    ax1.plot(t, 1e3 * tr["y_test"], "tab:blue", lw=1.0,
+             label=f"model, free run from the force (RMSE {1e3 * res.test['rms']:.2f} mm)")
+    ax1.plot(t, 1e3 * tr["y_idim_test"], "tab:red", lw=0.8, ls="--",
+             label=f"IDIM-LS, published (RMSE {1e3 * res.idim_test['rms']:.2f} mm)")
+    ax1.set_ylabel("position [mm]")
+    ax1.set_title(f"EMPS official protocol: {TEST_FILE} simulated from its force "
+                  f"(initial state from its first {N_INIT} samples)", fontsize=10)
+    ax1.legend(fontsize=8)
+    ax2.plot(t, 1e3 * (q - tr["y_test"]), "tab:blue", lw=1.0, label="model")
+    ax2.plot(t, 1e3 * (q - tr["y_idim_test"]), "tab:red", lw=0.8, ls="--", label="IDIM-LS")
+    ax2.axhline(0.0, color="k", lw=0.5)
+    ax2.set_xlabel("time [s]")
+    ax2.set_ylabel("measured - simulated [mm]")
+    ax2.legend(fontsize=8)
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    atomic_write(path, buf.getvalue())
 
 
 def format_table(res: ProtocolResult) -> str:
@@ -152,13 +191,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--folds", type=int, default=2, help="held-out blocks of the training run")
     ap.add_argument("--json", metavar="OUT.json", default=None, help="write the JSON here")
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
+    ap.add_argument("--plot", metavar="OUT.png", default=None,
+                    help="draw the test run: measured, simulated, and the error (mm)")
     args = ap.parse_args(argv)
     res = run_protocol(args.data, folds=args.folds, log=not args.quiet)
     print(format_table(res))
     print(f"\nmodel parameters: {json.dumps(res.fit.model.describe('N'))}")
     print(f"elapsed {res.elapsed_s:.1f} s")
     if args.json:
-        Path(args.json).write_text(json.dumps(res.to_json(), indent=2) + "\n")
+        atomic_write(args.json, json.dumps(res.to_json(), indent=2) + "\n")
+    if args.plot:
+        plot_test_run(res, args.plot)
+        print(f"plot: {args.plot}")
     return 0
 
 

@@ -150,3 +150,17 @@ def test_emps_protocol_measured() -> None:
     assert res.test["r2"] > 0.99
     assert 1e3 * res.idim_test["rms"] == pytest.approx(8.41, abs=0.05)
     assert res.test["rms"] < res.idim_test["rms"]
+
+
+def test_emps_protocol_plot_and_json(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from fricbench.bench.emps_protocol import plot_test_run
+
+    res = _protocol()
+    tr = res.traces
+    assert tr["q_test"].shape == tr["y_test"].shape == tr["t"].shape
+    # the traces are the figures' own: the test RMSE recomputed from them
+    e = (tr["q_test"] - tr["y_test"])[20:]
+    assert float(np.sqrt(np.mean(e**2))) == pytest.approx(res.test["rms"], rel=1e-9)
+    out = tmp_path / "test.png"
+    plot_test_run(res, out)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
