@@ -340,6 +340,10 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 new = _output_fit(new, prep, b, w, None).model
             y_new, _ = simulate_position(new, prep, w)
             why = artefact(new, winner.effect, prep, b)
+            if why is None and not np.all(np.isfinite(y_new)):
+                # a model whose loop diverges is rejected, not reported
+                why = (f"{winner.effect}: the loop with it diverges in a free run of the "
+                       "training run")
             if why is not None:
                 winner.size_ok = False
                 winner.note = (winner.note + "; " if winner.note else "") + "rejected: " + why
