@@ -136,10 +136,14 @@ class CandidateScore:
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready form."""
-        out: dict[str, object] = {"effect": self.effect, "n_params": self.n_params,
-                                  "heldout_error_ratio": self.heldout_ratio,
-                                  "heldout_gain_pct": 100.0 * (1.0 - self.heldout_ratio),
-                                  "judged_on": self.judged_on}
+        out: dict[str, object] = {"effect": self.effect, "n_params": self.n_params}
+        if math.isfinite(self.heldout_ratio):
+            out["heldout_error_ratio"] = self.heldout_ratio
+            out["heldout_gain_pct"] = 100.0 * (1.0 - self.heldout_ratio)
+        else:
+            # its held-out fit diverged: a rejected candidate, said so, never an inf
+            out["diverged"] = True
+        out["judged_on"] = self.judged_on
         if math.isfinite(self.size):
             # a candidate ranked but not fitted has no size: the key is left out, not null
             out["size"] = self.size
