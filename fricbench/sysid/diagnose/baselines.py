@@ -162,15 +162,11 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     """
     if prep.u is None:
         raise ValueError("fit_law: the run has no effort column")
-    inp = prep.inputs
-    exclude = prep.saturation.mask if prep.saturation is not None else None
     nyquist = 0.5 / prep.ts
     laws = []
     for frac in LAW_PREFILTERS:
         try:
-            laws.append(fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
-                                           exclude=exclude,
-                                           prefilter_hz=None if frac is None else frac * nyquist))
+            laws.append(_law_through(prep, None if frac is None else frac * nyquist))
         except (ValueError, np.linalg.LinAlgError):
             continue
     if len(laws) == 1:
@@ -199,23 +195,26 @@ def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
     """
     if prep.u is None:
         raise ValueError("fit_law_like: the run has no effort column")
-    inp = prep.inputs
-    exclude = prep.saturation.mask if prep.saturation is not None else None
     f = like.prefilter_hz
     if f is not None and not f < 0.5 / prep.ts:
         f = None
-    return fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
-                              exclude=exclude, prefilter_hz=f)
+    return _law_through(prep, f)
 
 
 def law_relerr_floor(prep: Prepared) -> float:
     """Smallest next-effort error (%) a linear law reaches on the run (unfiltered fit)."""
     if prep.u is None:
         raise ValueError("law_relerr_floor: the run has no effort column")
+    return _law_through(prep, None).relerr_pct
+
+
+def _law_through(prep: Prepared, prefilter_hz: float | None) -> ArxController:
+    """The run's law fitted through ``prefilter_hz`` (None: unfiltered), clipped samples out."""
+    assert prep.u is not None
     inp = prep.inputs
     exclude = prep.saturation.mask if prep.saturation is not None else None
     return fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
-                              exclude=exclude).relerr_pct
+                              exclude=exclude, prefilter_hz=prefilter_hz)
 
 
 def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bounds, float]:
