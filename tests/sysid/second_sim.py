@@ -966,7 +966,8 @@ def draw_case(kind: str, seed: int, *, duration: float | None = None,
             if kind != "control":
                 # the same gains on the axis without the effect: the signature is the
                 # effect's alone
-                ref_clean = simulate(base, ctrl, sensor, xr, x0=origin, clean=True)
+                ref_clean = simulate(_without_effect(kind, base, plant, clean), ctrl, sensor,
+                                     xr, x0=origin, clean=True)
                 case.signature = _rms((clean.y_log - ref_clean.y_log)[case.index])
             case.trace = simulate(plant, ctrl, sensor, xr, x0=origin, seed=noise_seed)
             pos_si = case.logged()["pos"] / UNIT_PER_SI[var.unit]  # type: ignore[operator]
@@ -974,6 +975,21 @@ def draw_case(kind: str, seed: int, *, duration: float | None = None,
             if case.signature is None or case.signature >= 2.0 * case.floor:
                 return case
     raise RuntimeError(f"{kind} seed {seed}: no visible effect in 50 draws")
+
+
+def _without_effect(kind: str, base: Plant, plant: Plant, clean: Trace) -> Plant:
+    """The axis a case is compared with to measure its effect's signature.
+
+    For friction that varies along the stroke it is the axis with the *mean* level over the
+    positions the run slides through: a run that spans a small part of the stroke sees a
+    nearly constant level, which is Coulomb friction of another size, not a position
+    dependence, and must not count as a visible one."""
+    if kind != "posdep":
+        return base
+    moving = np.abs(np.gradient(clean.x_table)) > 0.0
+    x = clean.x_table[moving] if np.any(moving) else clean.x_table
+    mean = float(np.mean(plant.friction_level(x)))
+    return replace(base, coulomb=base.coulomb * mean, breakaway=base.breakaway * mean)
 
 
 def _clip_level(rng: np.random.Generator, plant: Plant, command: np.ndarray,
