@@ -343,7 +343,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     get_effect(e).kind == "output" for e in new.effects):
                 new = _output_fit(new, prep, b, w, None).model
             y_new, _ = simulate_position(new, prep, w)
-            why = artefact(new, winner.effect, prep, b)
+            why = artefact(new, winner.effect, prep, b, w)
             if why is None and not np.all(np.isfinite(y_new)):
                 # a model whose loop diverges is rejected, not reported
                 why = (f"{winner.effect}: the loop with it diverges in a free run of the "
@@ -423,7 +423,8 @@ QUANTUM_MULTIPLES = (1, 2, 3, 4)
 """The multiples of the sensor quantum a period is compared with."""
 
 
-def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> str | None:
+def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
+             w: np.ndarray | None = None) -> str | None:
     """Why the fitted effect ``name`` of ``model`` is a sensor or fit artefact, or None.
 
     * a spatial period within :data:`QUANTUM_PERIOD_TOLERANCE` of a small multiple of the
@@ -433,7 +434,9 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> str | None
     * a shape parameter (a period, a time constant, a Stribeck velocity) that ended on a
       bound of its physical range (the optimum lies outside it: the effect stands in for
       something else). Sizes are not checked: their bounds are a multiple of the run's force
-      scale, not a physical limit, and a vanished size is rejected by the size test.
+      scale, not a physical limit, and a vanished size is rejected by the size test;
+    * what the effect's own :meth:`Effect.evidence` finds missing in the run (``w``: the
+      injected input of the free runs, as in :func:`simulate_position`).
     """
     effect = get_effect(name)
     p = model.plant
@@ -465,7 +468,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> str | None
         if hit is not None:
             return (f"{name}: its parameter {CL.PLANT_NAMES[i]} = {v:.4g} ended on its {hit}: "
                     "the optimum lies outside the physical range")
-    return None
+    return effect.evidence(model, prep, w, simulate_models)
 
 
 def _pick(scores: list[CandidateScore], settings: SearchSettings) -> CandidateScore | None:

@@ -190,6 +190,16 @@ class Effect(ABC):
         """
         raise ValueError(f"effect={self.name!r} is not an output effect")
 
+    def evidence(self, model: GreyBox, prep: Prepared, w: np.ndarray | None,
+                 simulate: SimulateFn) -> str | None:
+        """Why the run does not show the fitted effect where it should, or None.
+
+        A check beyond the held-out error for an effect that could stand in for a mismatch of
+        the model elsewhere: ``model`` has it on; ``simulate(models, prep, w)`` runs models
+        free. Most effects have no such check.
+        """
+        return None
+
     # -- open loop -----------------------------------------------------------------------------
     def open_loop_starts(self, effort: np.ndarray, y: np.ndarray, ts: float
                          ) -> list[dict[int, float]]:
