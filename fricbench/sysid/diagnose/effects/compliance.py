@@ -74,6 +74,10 @@ BAND_SHARE_MIN = 0.25
 """Smallest share of the fall of the (velocity-weighted) residual power that must lie in the
 resonance band (0.77 .. 0.93 on the two-mass runs; negative on the rigid runs above)."""
 
+START_SHAPES_PER_LOOP = 6
+"""Starting shapes (frequency, load share, sensor side) tried under each standard starting
+loop after ranking them under the current loop."""
+
 START_ITERATIONS = 25
 """Iterations of the refinement of a start with the loop free (runs without an effort)."""
 
@@ -321,12 +325,27 @@ class Compliance(Effect):
                         rows.append(q)
         if not rows:
             return model
-        models = [model.copy(plant=q, controller=loop) for loop in loops for q in rows]
-        ys, _, _ = simulate(models, prep, w)
-        sse = []
-        for yy in ys:
-            r = (prep.x - yy)[mask]
-            sse.append(sumsq(r) if np.all(np.isfinite(r)) else math.inf)
+
+        def masked_sse(models: list[GreyBox]) -> np.ndarray:
+            ys, _, _ = simulate(models, prep, w)
+            out = np.full(len(models), math.inf)
+            for k, yy in enumerate(ys):
+                r = (prep.x - yy)[mask]
+                if np.all(np.isfinite(r)):
+                    out[k] = sumsq(r)
+            return out
+
+        # the shapes ranked under the current loop, then only the best few under every
+        # starting loop (all shapes under all loops is 25 times the simulations, and the
+        # shape's rank under the current loop keeps the right one among the first few on the
+        # two-mass runs)
+        models = [model.copy(plant=q) for q in rows]
+        sse = masked_sse(models)
+        if len(loops) > 1:
+            keep = [rows[k] for k in np.argsort(sse)[:START_SHAPES_PER_LOOP]]
+            more = [model.copy(plant=q, controller=loop) for loop in loops[1:] for q in keep]
+            models += more
+            sse = np.concatenate([sse, masked_sse(more)])
         best = models[int(np.argmin(sse))]
         if not cascade:
             return best
