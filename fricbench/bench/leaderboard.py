@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from fricbench._atomic import atomic_write
+from fricbench.bench.ballbar import plot_ballbar
 from fricbench.bench.runner import EpisodeRecord
 from fricbench.bench.statistics import (
     CONFIDENCE,
@@ -57,6 +58,7 @@ __all__ = [
     "FAILURE_COLUMNS",
     "TARGETS",
     "TIMING_COLUMNS",
+    "ballbar_plot_name",
     "compensator_category",
     "env_file_stem",
     "ranking",
@@ -84,6 +86,11 @@ TARGET_TRAJECTORIES = ("m_serial", "curve")
 def env_file_stem(env_id: str) -> str:
     """``fricbench/PaperAxis-v0`` -> ``PaperAxis-v0``."""
     return env_id.split("/", 1)[-1]
+
+
+def ballbar_plot_name(env_id: str, trajectory: str) -> str:
+    """File name of the ballbar plot of a circle trajectory, under ``plots/``."""
+    return f"{env_file_stem(env_id)}_{trajectory}_ballbar.png"
 
 
 def _um(x: float) -> str:
@@ -299,7 +306,8 @@ def _ranking_table(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequ
 
 
 def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, str]],
-              command: str, commit: str, description: str, fit_on: str) -> str:
+              command: str, commit: str, description: str, fit_on: str,
+              ballbars: Sequence[str] = ()) -> str:
     from fricbench.compensators import CATEGORIES
 
     summary = summarise(rows)
@@ -403,6 +411,13 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     out.write("\n## Error traces (first seed)\n\n")
     for t in plots:
         out.write(f"![{t}](plots/{env_file_stem(env_id)}_{t}.png)\n")
+    if ballbars:
+        out.write("\n## Ballbar (first seed)\n\n"
+                  "The radius about the circle's centre against the angle, radial deviation "
+                  "magnified (the factor and the scale are on the plot): quadrant glitches at "
+                  "0, 90, 180 and 270 degrees, where an axis reverses.\n\n")
+        for t in ballbars:
+            out.write(f"![{t} ballbar](plots/{ballbar_plot_name(env_id, t)})\n")
     return out.getvalue()
 
 
@@ -460,6 +475,18 @@ def _plot(env_id: str, trajectory: str, records: Sequence[EpisodeRecord], path: 
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     atomic_write(path, buf.getvalue())
+
+
+def _plot_ballbar(env_id: str, trajectory: str, records: Sequence[EpisodeRecord],
+                  path: Path) -> None:
+    """The ballbar picture of the records' circle runs: a panel per compensator, ``none`` in
+    grey behind the others, one magnification for all."""
+    runs = {r.compensator: r.trace_ballbar
+            for r in sorted(records, key=lambda r: (r.compensator != "none", r.compensator))
+            if r.trace_ballbar is not None}
+    plot_ballbar(runs, f"{env_id}: {trajectory}, seed {records[0].seed}: ballbar (radial "
+                       "deviation about the nominal circle)", path,
+                 baseline="none" if "none" in runs and len(runs) > 1 else None)
 
 
 def write_leaderboards(records: Sequence[EpisodeRecord], out_dir: str | Path, command: str,
@@ -520,9 +547,6 @@ def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str,
         written.append(fail_path)
     elif fail_path.exists():
         fail_path.unlink()
-    atomic_write(out / f"{stem}.md",
-                 _markdown(env_id, rows, fail_rows, command, commit, desc, fit_on))
-    written.append(out / f"{stem}.md")
     timing_new = _timing_rows(recs)
     if timing_new:
         timings = {_key(r): {c: r.get(c, "") for c in TIMING_COLUMNS}
@@ -539,4 +563,14 @@ def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str,
         p = out / "plots" / f"{stem}_{traj}.png"
         _plot(env_id, traj, trs, p)
         written.append(p)
+        if any(r.trace_ballbar is not None for r in trs):
+            p = out / "plots" / ballbar_plot_name(env_id, traj)
+            _plot_ballbar(env_id, traj, trs, p)
+            written.append(p)
+    # a ballbar plot of an earlier run stays linked when this run drew none (a failed seed)
+    ballbars = [t for t in sorted({r["trajectory"] for r in rows})
+                if (out / "plots" / ballbar_plot_name(env_id, t)).exists()]
+    atomic_write(out / f"{stem}.md",
+                 _markdown(env_id, rows, fail_rows, command, commit, desc, fit_on, ballbars))
+    written.append(out / f"{stem}.md")
     return written

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from fricbench.axis import Axis
+from fricbench.bench.ballbar import CircleRun, circle_run
 from fricbench.bench.metrics import contour_error, score_run
 from fricbench.bench.plants import draw_plant, nominal_told
 from fricbench.compensators import (
@@ -92,7 +93,8 @@ class EpisodeRecord:
     """The outcome of one scored episode (SI units; ``status`` is ``"ok"`` or ``"failed"``;
     ``compensator_kwargs``: the constructor keywords the compensator was made with, beyond its
     registered defaults; ``plant``: ``"seed"`` for the seed's drawn plant, ``"nominal"`` for
-    the env's nominal axis)."""
+    the env's nominal axis; ``trace_*``: with ``keep_trace``, the scored error against time
+    and, for a ``circle`` run, what a ballbar reads at the full rate)."""
 
     env: str
     compensator: str
@@ -113,6 +115,7 @@ class EpisodeRecord:
     plant: str = "seed"
     trace_t: np.ndarray | None = field(default=None, repr=False)
     trace_error: np.ndarray | None = field(default=None, repr=False)
+    trace_ballbar: CircleRun | None = field(default=None, repr=False)
 
 
 def plant_axes(env_id: str, seed: int, nominal: bool = False) -> tuple[Axis, Axis]:
@@ -215,6 +218,9 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
             # maximum is over the full-rate run, so the subsampled curve may peak a bit below it)
             traced = contour_error(err, v_ref) if d > 1 else err[0]
             rec.trace_error = traced[::stride].copy()
+            if ref.name == "circle" and np.all(np.isfinite(x_true)):
+                # the polar picture reads every sample: a glitch lasts a few ms
+                rec.trace_ballbar = circle_run(ref, x_true)
         env.close()
     except Exception as exc:  # noqa: BLE001 - a failing compensator is a row, not a crash
         rec.status = "failed"
