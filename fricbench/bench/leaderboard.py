@@ -1,5 +1,9 @@
 """Leaderboard files: ``leaderboards/<env>.csv`` (raw rows), ``.md`` (tables), ``plots/``.
 
+The plots are of the first seed: the error against time of each trajectory, and for a circle
+the ballbar picture (:mod:`fricbench.bench.ballbar`; ``plots/<env>_circle_ballbar.png``), a
+polar panel per compensator, both linked from the ``.md``.
+
 A cell is one (env, compensator, trajectory, seed). A re-run replaces the rows of the cells it
 ran and keeps every other row, except that a failed run never replaces a good row: the table
 keeps the last good row of the cell, and the failure goes to ``<env>.failures.csv`` beside it
