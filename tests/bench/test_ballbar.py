@@ -220,3 +220,14 @@ def test_the_leaderboard_draws_and_links_the_ballbar_and_keeps_its_csv(
     # the tables above the plots are the same text
     head = md.split("## Error traces")[0]
     assert head == (plain / "CircleContouring-v0.md").read_text().split("## Error traces")[0]
+
+
+def test_a_rerun_without_the_plotted_seed_keeps_the_ballbar_linked(
+        tmp_path: Path, circle_records: dict[bool, EpisodeRecord]) -> None:
+    desc = {CIRCLE_ENV: ("circle", CIRCLE_ENV)}
+    write_leaderboards([circle_records[True]], tmp_path, "cmd", "abc", desc)
+    png = tmp_path / "plots" / ballbar_plot_name(CIRCLE_ENV, "circle")
+    before = png.read_bytes()
+    write_leaderboards([circle_records[False]], tmp_path, "cmd", "def", desc)
+    assert png.read_bytes() == before
+    assert f"](plots/{png.name})" in (tmp_path / "CircleContouring-v0.md").read_text()
