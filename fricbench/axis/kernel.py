@@ -116,14 +116,29 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     :func:`run_kernel`).
 
     The cascade controller around :mod:`fricbench.axis.plant`; the body shared by the serial
-    and parallel drivers and by the fused vector-env step, inlined into each caller.
+    and parallel drivers, inlined into each caller.
+    """
+    advance_axis_with(PL.constants(P[n]), n, P, S, xr, vr, ar, u_force, u_off, noise, x_true,
+                      x_meas, force, friction, status)
+
+
+def advance_axis_with(c: PL.Plant, n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray,
+                      vr: np.ndarray, ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray,
+                      noise: np.ndarray, x_true: np.ndarray, x_meas: np.ndarray,
+                      force: np.ndarray, friction: np.ndarray, status: np.ndarray) -> None:
+    """:func:`advance_axis` with the plant constants ``c`` of row ``P[n]`` already unpacked
+    (:func:`fricbench.axis.plant.constants`, or a row of
+    :func:`fricbench.axis.plant.constants_table`).
+
+    The fused vector-env step advances each axis by one sample per call; unpacking its plant
+    row (divisions, branches) at every call would cost a third of the sample, so it passes
+    constants unpacked once per parameter change.
     """
     n_samples = xr.shape[1]
     p = P[n]
     s = S[n]
     # parameters and state live in locals over the whole run: the inner loop touches no
     # arrays but the inputs and outputs
-    c = PL.constants(p)
     ts = p[P_TS]
     m, kt = c.m, c.kt
     kp, kvff, kaff, kv, ti = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI]
@@ -208,6 +223,7 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
 
 # fast-math as in the plant (FASTMATH): rounding-level changes only, divergence checks kept
 _measure = numba.njit(cache=True)(_measure)
+advance_axis_with = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance_axis_with)
 advance_axis = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance_axis)
 
 
@@ -312,6 +328,7 @@ __all__ = [
     "STATUS_OK",
     "STATUS_RUNAWAY",
     "advance_axis",
+    "advance_axis_with",
     "initial_state",
     "run_kernel",
 ]

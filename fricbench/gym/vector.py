@@ -159,6 +159,9 @@ class ServoAxisVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._batch = AxisBatch(self.axis, n=num_envs)
+        # without friction redrawn per episode every row of the batch holds the axis's plant
+        # row, and the compiled step unpacks it once per step instead of once per sub-env
+        self._shared_plant = not self.task.randomize.ranges
         n = num_envs
         self._ref_id = np.zeros(n, dtype=np.int64)
         self._k = np.zeros(n, dtype=np.int64)
@@ -226,8 +229,9 @@ class ServoAxisVectorEnv(VectorEnv):
         rewards = np.empty(self.num_envs)
         truncated = np.empty(self.num_envs, dtype=bool)
         reward = self.task.reward
-        code = vector_step(self._batch.P, self._batch.S, self._X, self._V, self._A, self._len,
-                           self._ref_id, self._k, a, hold, self.task.action == "force",
+        code = vector_step(self._batch.P, self._shared_plant, self._batch.S, self._X, self._V,
+                           self._A, self._len, self._ref_id, self._k, a, hold,
+                           self.task.action == "force",
                            self.task.action_scale, draws, self._offsets, self._scales,
                            reward.error_scale, reward.action_weight, self._prev_action,
                            self._work, self._batch.status, obs, rewards, truncated)

@@ -1,7 +1,8 @@
 """One compiled call per vector-env step: action check, reference look-up, the axis kernel,
 observation, reward and truncation for every sub-env.
 
-The physics is the kernel's own per-axis body (:func:`fricbench.axis.kernel.advance_axis`) and
+The physics is the kernel's own per-axis body (:func:`fricbench.axis.kernel.advance_axis`, or
+:func:`~fricbench.axis.kernel.advance_axis_with` when the rows share one plant) and
 the observation is :func:`fricbench.gym.task.observe_row`; this module only fuses the per-step
 glue around them, which in numpy cost as much as the physics at 4096 envs (a dozen passes over
 the batch and their temporaries).
@@ -14,19 +15,20 @@ import math
 import numba
 import numpy as np
 
-from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis
+from fricbench.axis import plant as PL
+from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis, advance_axis_with
 from fricbench.gym.task import observe_row
 
 __all__ = ["vector_step"]
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def vector_step(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray, A: np.ndarray,
-                lengths: np.ndarray, ref_id: np.ndarray, k: np.ndarray, action: np.ndarray,
-                hold: np.ndarray, force_action: bool, action_scale: float, draws: np.ndarray,
-                offsets: np.ndarray, scales: np.ndarray, reward_error_scale: float,
-                action_weight: float, prev_action: np.ndarray, work: np.ndarray,
-                status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np.ndarray,
+                A: np.ndarray, lengths: np.ndarray, ref_id: np.ndarray, k: np.ndarray,
+                action: np.ndarray, hold: np.ndarray, force_action: bool, action_scale: float,
+                draws: np.ndarray, offsets: np.ndarray, scales: np.ndarray,
+                reward_error_scale: float, action_weight: float, prev_action: np.ndarray,
+                work: np.ndarray, status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
                 truncated: np.ndarray) -> int:
     """Advance every sub-env that is not held by one control sample.
 
@@ -34,6 +36,9 @@ def vector_step(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray, A: n
     ----------
     P, S : ndarray
         Packed parameters and states of the ``N`` axes (kernel layout); ``S`` is updated.
+    shared : bool
+        Every row of ``P`` holds the same plant row (friction not redrawn per sub-env): its
+        constants are unpacked once per call, not once per sub-env.
     X, V, A : ndarray, shape (R, L)
         Padded reference tables; sub-env ``n`` follows row ``ref_id[n]`` at sample ``k[n]``.
     lengths : ndarray of int64, shape (R,)
@@ -82,6 +87,9 @@ def vector_step(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray, A: n
     # the reward scores the error feature (float64) as the scalar env does: e = o_0 * e_s
     inv_r = scales[0] / reward_error_scale
     first_bad = 0
+    # unpacking a plant row (divisions, branches) costs a third of a sample: done once when
+    # the rows share one plant, else per row as the kernel's drivers do
+    c = PL.constants(P[0])
     for n in range(n_env):
         i = ref_id[n]
         if hold[n]:
@@ -99,8 +107,12 @@ def vector_step(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray, A: n
                 u_force[n, 0] = 0.0
                 u_off[n, 0] = a * action_scale
             noise[n, 0] = draws[n]
-            advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas, force,
-                         friction, status)
+            if shared:
+                advance_axis_with(c, n, P, S, xr, vr, ar, u_force, u_off, noise, x_true,
+                                  x_meas, force, friction, status)
+            else:
+                advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas,
+                             force, friction, status)
             if status[n] != 0 and first_bad == 0:
                 first_bad = n + 1
             k[n] = kk + 1
