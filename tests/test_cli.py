@@ -139,7 +139,7 @@ def test_perf_writes_exactly_the_keys(tmp_path: Path) -> None:
     assert set(data) == {"env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
                          "simulate_samples_per_s", "python_control_samples_per_s",
                          "train_steps_per_s", "train_dummy_steps_per_s", "rollout_steps_per_s",
-                         "rollout_dummy_steps_per_s"}
+                         "rollout_dummy_steps_per_s", "vector_env_to_simulate"}
     assert all(v > 0 for v in data.values())
 
 

@@ -17,7 +17,8 @@ __all__ = ["PERF_KEYS", "measure_performance"]
 
 PERF_KEYS = ("env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
              "simulate_samples_per_s", "python_control_samples_per_s", "train_steps_per_s",
-             "train_dummy_steps_per_s", "rollout_steps_per_s", "rollout_dummy_steps_per_s")
+             "train_dummy_steps_per_s", "rollout_steps_per_s", "rollout_dummy_steps_per_s",
+             "vector_env_to_simulate")
 
 TRAIN_ENV = "fricbench/RandomFriction-v0"
 """The env the training throughput is measured on (``fricbench train``'s default)."""
@@ -209,7 +210,9 @@ def measure_performance(quick: bool = False, log: Callable[[str], None] = print
               "vector_env_steps_per_s": vec, "simulate_samples_per_s": sim,
               "python_control_samples_per_s": pc, "train_steps_per_s": train,
               "train_dummy_steps_per_s": train_dummy, "rollout_steps_per_s": rollout,
-              "rollout_dummy_steps_per_s": rollout_dummy}
+              "rollout_dummy_steps_per_s": rollout_dummy,
+              # the vector env's overhead: its steps per second per single-trajectory sample
+              "vector_env_to_simulate": vec / sim}
     log(f"perf: vector env peak memory at 4096 envs (tracemalloc): {peak_mb:.1f} MB "
         f"(target < 500 MB)")
     return result
@@ -221,7 +224,8 @@ def format_report(r: dict[str, float]) -> str:
         ("env_steps_per_s", r["env_steps_per_s"],
          f"{r['env_steps_per_s'] / r['pendulum_steps_per_s']:.2f} x Pendulum (target >= 0.5)"),
         ("pendulum_steps_per_s", r["pendulum_steps_per_s"], "reference"),
-        ("vector_env_steps_per_s", r["vector_env_steps_per_s"], "target >= 5,000,000"),
+        ("vector_env_steps_per_s", r["vector_env_steps_per_s"],
+         f"{r['vector_env_to_simulate']:.2f} x simulate (target >= 0.8)"),
         ("simulate_samples_per_s", r["simulate_samples_per_s"], "target >= 1,000,000"),
         ("python_control_samples_per_s", r["python_control_samples_per_s"],
          f"simulate is {r['simulate_samples_per_s'] / r['python_control_samples_per_s']:.0f} x "
