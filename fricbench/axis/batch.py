@@ -57,14 +57,23 @@ class AxisBatch:
                 raise ValueError(f"n={n!r}: does not match len(axes)={len(self.axes)}")
             self.P = np.stack([a.pack() for a in self.axes])
         self.n = self.P.shape[0]
+        # every row the same plant row: a stepper may then unpack it once for all rows
+        self.uniform = bool(np.all(self.P == self.P[0]))
         self.S = np.zeros((self.n, K.N_STATE))
         self.status = np.zeros(self.n, dtype=np.int64)
         self._out1 = tuple(np.empty((self.n, 1)) for _ in range(4))
 
     def set_params(self, i: int, axis: Axis) -> None:
-        """Replace the parameters of row ``i`` (e.g. friction randomised per episode)."""
+        """Replace the parameters of row ``i`` (e.g. friction randomised per episode).
+
+        Rows are changed through this method only (it keeps :attr:`uniform` true).
+        """
         self.axes[i] = axis
         self.P[i] = axis.pack()
+        if i == 0 or i == -self.n:
+            self.uniform = bool(np.all(self.P == self.P[0]))
+        else:
+            self.uniform = self.uniform and bool(np.array_equal(self.P[i], self.P[0]))
 
     def reset(self, x0: np.ndarray | float, v0: np.ndarray | float = 0.0,
               noise: np.ndarray | None = None, rows: np.ndarray | None = None) -> None:

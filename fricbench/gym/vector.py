@@ -159,9 +159,6 @@ class ServoAxisVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._batch = AxisBatch(self.axis, n=num_envs)
-        # without friction redrawn per episode every row of the batch holds the axis's plant
-        # row, and the compiled step unpacks it once per step instead of once per sub-env
-        self._shared_plant = not self.task.randomize.ranges
         n = num_envs
         self._ref_id = np.zeros(n, dtype=np.int64)
         self._k = np.zeros(n, dtype=np.int64)
@@ -190,6 +187,10 @@ class ServoAxisVectorEnv(VectorEnv):
         noise = rng.standard_normal(idx.size) if self.axis.needs_noise else None
         self._batch.reset(self._X[self._ref_id[idx], 0], self._V[self._ref_id[idx], 0], noise,
                           rows=idx)
+
+    @property
+    def _shared_plant(self) -> bool:
+        return self._batch.uniform
 
     def reset(self, *, seed: int | list[int] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -229,6 +230,8 @@ class ServoAxisVectorEnv(VectorEnv):
         rewards = np.empty(self.num_envs)
         truncated = np.empty(self.num_envs, dtype=bool)
         reward = self.task.reward
+        # while every row holds the same plant (no friction redrawn, no plant set per row)
+        # the compiled step unpacks it once per step instead of once per sub-env
         code = vector_step(self._batch.P, self._shared_plant, self._batch.S, self._X, self._V,
                            self._A, self._len, self._ref_id, self._k, a, hold,
                            self.task.action == "force",

@@ -45,7 +45,7 @@ def test_shared_plant_step_is_bit_identical_to_the_per_row_step(env_id: str, n: 
     fast = ServoAxisVectorEnv(num_envs=n, axis=axis, task=task, reference_pool=2, seed=n)
     slow = ServoAxisVectorEnv(num_envs=n, axis=axis, task=task, reference_pool=2, seed=n)
     assert fast._shared_plant
-    slow._shared_plant = False  # the per-row path: every sub-env unpacks its own plant row
+    slow._batch.uniform = False  # the per-row path: every sub-env unpacks its own plant row
     a, b = _rollout(fast, 300, n), _rollout(slow, 300, n)
     assert len(a) == len(b)
     for x, y in zip(a, b, strict=True):
@@ -57,4 +57,27 @@ def test_shared_plant_step_is_bit_identical_to_the_per_row_step(env_id: str, n: 
 def test_randomized_env_unpacks_each_row() -> None:
     venv = ServoAxisVectorEnv(num_envs=3, axis=get_spec("fricbench/RandomFriction-v0").axis,
                               task=get_spec("fricbench/RandomFriction-v0").task)
+    venv.reset(seed=0)
     assert not venv._shared_plant
+
+
+def test_a_plant_set_per_row_is_stepped_per_row() -> None:
+    """Rows given their own plants through ``set_params`` (a per-episode plant draw without
+    friction randomisation) step as sub-envs of their own, not as copies of row 0."""
+    spec = get_spec("fricbench/PaperAxis-v0")
+    mixed = ServoAxisVectorEnv(num_envs=2, axis=spec.axis, task=spec.task, reference_pool=1,
+                               seed=3)
+    heavy = replace(spec.axis, mechanics=replace(spec.axis.mechanics,
+                                                 mass=2.0 * spec.axis.mechanics.mass))
+    mixed._batch.set_params(1, heavy)
+    assert not mixed._shared_plant
+    alone = ServoAxisVectorEnv(num_envs=2, axis=heavy, task=spec.task, reference_pool=1,
+                               seed=3)
+    a, b = _rollout(mixed, 200, 2), _rollout(alone, 200, 2)
+    # row 1 of the mixed batch is the heavy axis: as in a batch of heavy axes only
+    for x, y in zip(a, b, strict=True):
+        if x.ndim >= 1 and x.shape[0] == 2:
+            assert np.array_equal(x[1], y[1])
+    # and row 0 is not (the light axis moves differently)
+    assert any(x.ndim >= 1 and x.shape[0] == 2 and not np.array_equal(x[0], y[0])
+               for x, y in zip(a, b, strict=True))
