@@ -48,6 +48,8 @@ _BUILTIN: dict[str, tuple[str, dict[str, Any], str]] = {
                     "model-based friction feedforward (Stribeck fit)"),
     "kalman": ("fricbench.compensators.kalman:KalmanDisturbanceObserver", {},
                "Kalman disturbance observer, estimate fed back as force"),
+    "ekf": ("fricbench.compensators.ekf:ExtendedFrictionObserver", {},
+            "extended Kalman filter with an online Stribeck friction level, fed back as force"),
     "ilc": ("fricbench.compensators.ilc:IterativeLearningControl", {},
             "iterative learning control (rehearses the scored reference)"),
     "rl-sac": ("fricbench.compensators.rl:RLCompensator", {"algo": "sac"},
