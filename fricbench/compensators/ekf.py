@@ -198,19 +198,36 @@ class _FrictionEKF(ExtendedKalmanFilter):  # type: ignore[misc]
         super().__init__(dim_x=4, dim_z=1, dim_u=1)
         self.model = model
         self.F = np.eye(4)
+        self._gain = np.zeros((4, 1))
+        self._buf = np.zeros((4, 4))
 
     def predict_x(self, u: float = 0.0) -> None:
         # filterpy then forms P = F P F' + Q with the Jacobian written here at the prior state
         self.x = ekf_transition(self.x, float(u), self.model, self.F)
 
+    def update_position(self, z: float) -> None:
+        """Update with the encoder position ``z`` (m): filterpy's ``update`` for ``H = [1 0 0 0]``.
 
-def _h_jacobian(x: np.ndarray, h: np.ndarray) -> np.ndarray:
-    return h
-
-
-def _hx(x: np.ndarray) -> np.ndarray:
-    # z = x (the encoder position), shape (1, 1) like the state's column
-    return x[:1]
+        The same Joseph-form update as ``ExtendedKalmanFilter.update`` written for the scalar
+        measurement, without its per-call matrix inverse, deep copies and history copies (it
+        ran at a third of the step's time); ``x`` and ``P`` stay filterpy's attributes.
+        """
+        p, k, buf = self.P, self._gain, self._buf
+        r = float(self.R[0, 0])
+        # S = H P H' + R,  K = P H' / S
+        s = p[0, 0] + r
+        np.divide(p[:, :1], s, out=k)
+        # y = z - H x
+        y = z - self.x[0, 0]
+        self.x += k * y
+        # P = (I - K H) P (I - K H)' + K R K'   (Joseph form, as filterpy)
+        np.multiply(k, p[:1, :], out=buf)
+        p -= buf
+        np.multiply(p[:, :1], k.T, out=buf)
+        p -= buf
+        np.multiply(k, k.T, out=buf)
+        buf *= r
+        p += buf
 
 
 class ExtendedFrictionObserver(Compensator):
@@ -296,8 +313,6 @@ class ExtendedFrictionObserver(Compensator):
         self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
         self._scale = context.task.action_scale
         self._limit = self._scale if self.max_force is None else self.max_force
-        self._h = np.array([[1.0, 0.0, 0.0, 0.0]])
-        self._z = np.zeros((1, 1))
         level_sd = self.level_std * max(model.fc, 1.0)
         self._model = model
         self._filters = []
@@ -323,8 +338,7 @@ class ExtendedFrictionObserver(Compensator):
                 # motor force of the last sample: it acted over [t_k-1, t_k)
                 kf.predict(u=observation[f_col] * self._f_scale)
             # z = x_ref - e
-            self._z[0, 0] = self._xref[i, k] - observation[e_col] * self._e_scale
-            kf.update(self._z, _h_jacobian, _hx, args=(self._h,))
+            kf.update_position(self._xref[i, k] - observation[e_col] * self._e_scale)
             v, c, d = float(kf.x[1, 0]), float(kf.x[2, 0]), float(kf.x[3, 0])
             s = stribeck_shape(v, model)[0]
             self.level_[i] = c
