@@ -82,18 +82,20 @@ class EKFModel:
         Velocity scale of the smooth sign ``tanh(v / eps)``, m/s.
     fc : float
         Nominal Coulomb level, N (the level's prior mean).
+    decay : float
+        ``exp(-ts / tau_d)``: the residual's decay over a sample (1: a random walk).
     """
 
-    __slots__ = ("damping", "eps", "fc", "fv", "mass", "rho", "ts", "vs")
+    __slots__ = ("damping", "decay", "eps", "fc", "fv", "mass", "rho", "ts", "vs")
 
     def __init__(self, mass: float, damping: float, ts: float, rho: float, vs: float,
-                 fv: float, eps: float, fc: float) -> None:
+                 fv: float, eps: float, fc: float, decay: float = 1.0) -> None:
         self.mass, self.damping, self.ts = float(mass), float(damping), float(ts)
         self.rho, self.vs, self.fv = float(rho), float(vs), float(fv)
-        self.eps, self.fc = float(eps), float(fc)
+        self.eps, self.fc, self.decay = float(eps), float(fc), float(decay)
 
 
-def ekf_model(axis: Axis, eps: float = 1.0e-4) -> EKFModel:
+def ekf_model(axis: Axis, eps: float = 1.0e-4, residual_time: float | None = None) -> EKFModel:
     """The EKF's model from a nominal axis: mass, damping and the shape of its friction.
 
     Parameters
@@ -104,13 +106,18 @@ def ekf_model(axis: Axis, eps: float = 1.0e-4) -> EKFModel:
         Stribeck law).
     eps : float
         Width of the smooth sign, m/s.
+    residual_time : float or None
+        Correlation time ``tau_d`` of the residual disturbance, s (``None``: a random walk).
     """
     check_positive("eps", eps, "m/s")
+    ts = axis.controller.ts
+    decay = 1.0 if residual_time is None else math.exp(
+        -ts / check_positive("residual_time", residual_time, "s"))
     p = axis.friction.kernel_params()
     fc, fs = float(p.get("fc", 0.0)), float(p.get("fs", 0.0))
     rho = fs / fc if fc > 0.0 and fs > fc else 1.0
-    return EKFModel(axis.mechanics.mass, axis.mechanics.damping, axis.controller.ts, rho,
-                    float(p.get("vs", 0.0)), float(p.get("fv", 0.0)), eps, max(fc, 0.0))
+    return EKFModel(axis.mechanics.mass, axis.mechanics.damping, ts, rho,
+                    float(p.get("vs", 0.0)), float(p.get("fv", 0.0)), eps, max(fc, 0.0), decay)
 
 
 def stribeck_shape(v: float, model: EKFModel) -> tuple[float, float, float]:
@@ -151,8 +158,8 @@ def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
     model : EKFModel
         The model's constants.
     jacobian : ndarray, shape (4, 4), optional
-        Written in place with ``d state+ / d state`` when given (its last two rows are the
-        identity's and left as they are: fill them once).
+        Written in place with ``d state+ / d state`` when given (its last two rows,
+        ``diag(1, decay)``, are constant and left as they are: fill them once).
 
     Returns
     -------
@@ -171,7 +178,8 @@ def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
     implicit = g < 0.0
     den = 1.0 - ts * g if implicit else 1.0
     dv = ts * a / den
-    out = np.array([[x + ts * v + 0.5 * ts * dv], [v + dv], [c], [d]])
+    # c+ = c (random walk), d+ = exp(-ts / tau_d) d (zero-mean residual)
+    out = np.array([[x + ts * v + 0.5 * ts * dv], [v + dv], [c], [model.decay * d]])
     if jacobian is not None:
         # d(dv)/dq = ts (da/dq) / den + ts^2 a (dg/dq) / den^2   (dg/dq only where implicit)
         k1 = ts / den
@@ -197,7 +205,9 @@ class _FrictionEKF(ExtendedKalmanFilter):  # type: ignore[misc]
     def __init__(self, model: EKFModel) -> None:
         super().__init__(dim_x=4, dim_z=1, dim_u=1)
         self.model = model
-        self.F = np.eye(4)
+        self.F = np.diag([1.0, 1.0, 1.0, model.decay])
+        # below this estimated speed the level is held: 3 eps, where tanh(v / eps) > 0.995
+        self.v_adapt = 3.0 * model.eps
         self._gain = np.zeros((4, 1))
         self._buf = np.zeros((4, 4))
 
@@ -217,6 +227,11 @@ class _FrictionEKF(ExtendedKalmanFilter):  # type: ignore[misc]
         # S = H P H' + R,  K = P H' / S
         s = p[0, 0] + r
         np.divide(p[:, :1], s, out=k)
+        if abs(self.x[1, 0]) < self.v_adapt:
+            # sticking: the level is not observable (any level balances the force), and the
+            # stiff law's linearisation would move it at random; hold it (K_c = 0). The Joseph
+            # form below keeps P right for this non-optimal gain.
+            k[2, 0] = 0.0
         # y = z - H x
         y = z - self.x[0, 0]
         self.x += k * y
@@ -238,6 +253,9 @@ class ExtendedFrictionObserver(Compensator):
     residual_bandwidth : float
         Bandwidth of the residual disturbance ``d``, rad/s (sets its random-walk density
         with ``kalman``'s rule; see the module docstring).
+    residual_time : float
+        Correlation time of the residual disturbance, s: it decays towards zero with this
+        time constant, so that a lasting friction force is carried by the level.
     level_std : float
         Relative prior standard deviation of the Coulomb level (0.2 = 20 % of the nominal).
     level_time : float
@@ -265,11 +283,13 @@ class ExtendedFrictionObserver(Compensator):
     learns: ClassVar[bool] = False
     category: ClassVar[str] = "online"
 
-    def __init__(self, *, residual_bandwidth: float = 300.0, level_std: float = 0.2,
+    def __init__(self, *, residual_bandwidth: float = 300.0, residual_time: float = 0.05,
+                 level_std: float = 0.2,
                  level_time: float = 1.0, eps: float = 1.0e-4, gain: float = 1.0,
                  max_force: float | None = None) -> None:
         super().__init__()
         check_positive("residual_bandwidth", residual_bandwidth, "rad/s")
+        check_positive("residual_time", residual_time, "s")
         check_positive("level_std", level_std)
         check_positive("level_time", level_time, "s")
         check_positive("eps", eps, "m/s")
@@ -277,6 +297,7 @@ class ExtendedFrictionObserver(Compensator):
         if max_force is not None:
             check_positive("max_force", max_force, "N")
         self.residual_bandwidth = residual_bandwidth
+        self.residual_time = residual_time
         self.level_std = level_std
         self.level_time = level_time
         self.eps = eps
@@ -302,7 +323,7 @@ class ExtendedFrictionObserver(Compensator):
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
         axis = context.nominal_axis
-        model = ekf_model(axis, self.eps)
+        model = ekf_model(axis, self.eps, self.residual_time)
         q, r = self._covariances(axis, model)
         ref = context.reference
         self._xref = np.atleast_2d(ref.x)
