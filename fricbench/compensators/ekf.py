@@ -32,17 +32,23 @@ Tuning (not fitted on any run; the category is ``online``)
 * ``R``: ``q^2 / 12 + noise_std^2`` of the nominal axis, as ``kalman`` (encoder step ``q``).
 * Force noise: the drive's reported force carries ``kt * current_noise_std`` (N) of
   white noise; held over a sample it enters ``Q`` through ``G = [ts^2/(2M), ts/M, 0, 0]``.
-* ``d``: random walk whose density follows ``kalman``'s Butterworth rule for a bandwidth
-  ``residual_bandwidth`` (``q_d = M^2 R ts omega^6``, Van Loan over ``ts``). Default 300 rad/s,
-  below the loop's dominant pair (about 500 rad/s) and a third of ``kalman``'s 1000: the law
-  carries the fast part of the friction (its step at a reversal), so the residual need only
-  follow slow model error, and the encoder-step force noise (growing like ``omega^2``) stays
-  about a tenth of ``kalman``'s.
+* ``d``: a zero-mean residual (first-order Gauss-Markov, correlation time ``residual_time``
+  = 50 ms, the length of a breakaway transient) driven by the density of ``kalman``'s
+  Butterworth rule for a bandwidth ``residual_bandwidth`` (``q_d = M^2 R ts omega^6``, Van Loan
+  over ``ts``). Default 300 rad/s, below the loop's dominant pair (about 500 rad/s) and a third
+  of ``kalman``'s 1000: the law carries the fast part of the friction (its step at a
+  reversal), so the residual need only follow model error. Why it decays: while the axis
+  slides one way, ``c s(v)`` and ``d`` are the same constant force and only their sum is
+  observed; two random walks would split it at random (a level of -190 N beside a residual of
+  -470 N was seen on an s-curve). Decaying, ``d`` hands any lasting force to the level.
 * ``c``: prior std ``level_std * F_c`` (0.2: friction levels of one axis type differ by a few
   tens of percent between machines and operating states, Armstrong-Helouvry et al. 1994), and a
   random-walk density ``(level_std F_c)^2 / level_time`` so that the level may drift by that
   much in ``level_time = 1 s`` (a generous rate: temperature drifts over minutes; faster lets
   the level converge within the first reversals of an episode).
+* The level is held (its gain set to zero, the Joseph-form covariance update stays exact for
+  that gain) while the estimated speed is below ``3 eps``: sticking, any level balances the
+  motor force, and the stiff law's linearisation would move it at random.
 * ``eps = 1e-4 m/s``: the width of the sign's smooth crossing, below the encoder's one-sample
   velocity resolution ``q / ts`` (0.25 mm/s on the default axis) and the Stribeck velocity
   (2 mm/s), so that the law is the Stribeck law wherever the velocity is measurable.
@@ -201,6 +207,11 @@ def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
 
 class _FrictionEKF(ExtendedKalmanFilter):  # type: ignore[misc]
     """filterpy's EKF with the nonlinear prediction of :func:`ekf_transition`."""
+
+    x: np.ndarray
+    F: np.ndarray
+    P: np.ndarray
+    R: np.ndarray
 
     def __init__(self, model: EKFModel) -> None:
         super().__init__(dim_x=4, dim_z=1, dim_u=1)
