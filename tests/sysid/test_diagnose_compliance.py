@@ -145,3 +145,49 @@ def test_the_command_reads_a_load_position_in_mm_and_names_a_missing_column(
     assert main([str(path), "--load-position", "linear_scale", "--quiet"]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
     assert "missing column(s) 'linear_scale'" in err and "--load-position" in err
+
+
+class _Model:
+    """The two attributes :meth:`Compliance.evidence` reads of a grey box."""
+
+    def __init__(self, plant: np.ndarray) -> None:
+        self.plant = plant
+
+    def without(self, name: str) -> _Model:
+        return _Model(np.zeros_like(self.plant))
+
+
+@pytest.mark.parametrize("removes_ringing", [True, False])
+def test_compliance_needs_the_residual_to_fall_at_its_resonance(removes_ringing: bool) -> None:
+    """A resonance is accepted where modelling it removed the ringing of the rigid model's
+    residual; a two-mass model that cuts the residual elsewhere (a slow loop mismatch) and
+    rings in its own band is rejected, naming why."""
+    from types import SimpleNamespace
+
+    from fricbench.sysid.diagnose import closed_loop as CL
+    from fricbench.sysid.diagnose.effects.compliance import Compliance
+
+    n, f_r, ratio = 8000, 40.0, 0.36  # f_a = 32 Hz
+    t = np.arange(n) * TS
+    rng = np.random.default_rng(7)
+    slow = 1e-6 * np.sin(2 * np.pi * 0.7 * t)
+    ring = 2e-7 * np.sin(2 * np.pi * 36.0 * t)
+    noise = 1e-9 * rng.standard_normal(n)
+    x = slow + ring + noise
+    rigid = np.zeros(n)  # leaves both the slow part and the ringing
+    # the compliant model explains the ringing (True) or half the slow part while ringing
+    # twice as much in its band (False)
+    flexible = ring if removes_ringing else 0.5 * slow - ring
+    plant = np.zeros(CL.N_PLANT)
+    plant[CL.I_CF], plant[CL.I_CR] = f_r, ratio
+    prep = SimpleNamespace(n=n, ts=TS, x=x)
+
+    def simulate(models, prep_, w):  # type: ignore[no-untyped-def]
+        ys = np.stack([flexible if np.any(m.plant) else rigid for m in models])
+        return ys, None, None
+
+    why = Compliance().evidence(_Model(plant), prep, None, simulate)  # type: ignore[arg-type]
+    if removes_ringing:
+        assert why is None
+    else:
+        assert why is not None and "not where the residual fell" in why
