@@ -56,6 +56,8 @@ _BUILTIN: dict[str, tuple[str, dict[str, Any], str]] = {
                "SAC policy (stable-baselines3) acting as a force"),
     "rl-ppo": ("fricbench.compensators.rl:RLCompensator", {"algo": "ppo"},
                "PPO policy (stable-baselines3) acting as a force"),
+    "rl-residual": ("fricbench.compensators.rl_residual:ResidualRLCompensator", {},
+                    "policy (stable-baselines3) adding a residual force to the kalman observer"),
 }
 for _id, (_ep, _kw, _desc) in _BUILTIN.items():
     compensator_registry.register(_id, _ep, kwargs=_kw, description=_desc)

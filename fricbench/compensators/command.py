@@ -21,6 +21,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                     "Existing files are never replaced without --force (exit 2, checked "
                     "before training).")
     p.add_argument("compensator", choices=sorted(ALGOS), help="compensator id")
+    p.add_argument("--algo", choices=("sac", "ppo"), default=None,
+                   help=f"rl-residual's algorithm (default: {ALGOS['rl-residual']}); the "
+                        "other ids name theirs")
     p.add_argument("--env", default="fricbench/RandomFriction-v0",
                    help="training env id (default: %(default)s)")
     p.add_argument("--vec-env", choices=VEC_ENVS, default="native",
@@ -47,15 +50,19 @@ def run(args: argparse.Namespace) -> int:
     from fricbench.compensators.train import default_out, train_agent
 
     out = args.out or str(default_out(args.compensator, args.seed))
-    argv = ["fricbench", "train", args.compensator, "--env", args.env, "--vec-env",
+    algo = ["--algo", args.algo] if args.algo is not None else []
+    argv = ["fricbench", "train", args.compensator, *algo, "--env", args.env, "--vec-env",
             args.vec_env, "--steps", str(args.steps), "--seed", str(args.seed), "--out", str(out)]
     try:
         res = train_agent(args.compensator, env_id=args.env, steps=args.steps, seed=args.seed,
                           out=out, command=shlex.join(argv), verbose=args.verbose,
-                          overwrite=args.force, vec_env=args.vec_env)
+                          overwrite=args.force, vec_env=args.vec_env, algo=args.algo)
     except FileExistsError as exc:
         print(f"fricbench train: error: {exc.filename} exists; pass --force to overwrite it, "
               "or --out to write elsewhere", file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        print(f"fricbench train: error: {exc}", file=sys.stderr)
         return 2
     val = res.validation
     print(f"wrote {res.json_path} and {res.weights_path} ({res.seconds:.0f} s training); "

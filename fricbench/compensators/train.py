@@ -19,6 +19,7 @@ shipped ones with ``--vec-env dummy``, the route their recorded commands took).
 from __future__ import annotations
 
 import errno
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -41,11 +42,15 @@ from fricbench.compensators.training_data import env_setup, training_references
 from fricbench.gym.env import ServoAxisEnv
 from fricbench.gym.task import Randomization, n_features
 
-__all__ = ["ALGOS", "HYPERPARAMS", "VEC_ENVS", "TrainResult", "default_out", "train_agent",
-           "export_actor", "make_training_env", "validation_score"]
+__all__ = ["ALGOS", "HYPERPARAMS", "RESIDUAL", "RESIDUAL_HYPERPARAMS", "VEC_ENVS",
+           "TrainResult", "default_out", "train_agent", "export_actor", "make_training_env",
+           "residual_validation_score", "validation_score"]
 
-#: compensator id -> stable-baselines3 algorithm
-ALGOS = {"rl-sac": "sac", "rl-ppo": "ppo"}
+#: compensator id -> stable-baselines3 algorithm (``rl-residual``: the default of ``algo``)
+ALGOS = {"rl-sac": "sac", "rl-ppo": "ppo", "rl-residual": "ppo"}
+
+#: ``rl-residual``'s base (``kalman``'s settings) and residual force per unit action, N
+RESIDUAL: dict[str, float] = {"residual_scale": 400.0, "bandwidth": 1000.0, "gain": 1.0}
 
 #: how the training env is vectorised: fricbench's native vector env, or stable-baselines3's
 #: ``DummyVecEnv`` of scalar envs
@@ -63,6 +68,17 @@ HYPERPARAMS: dict[str, dict[str, Any]] = {
             "batch_size": 256, "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.95, "clip_range": 0.2,
             "ent_coef": 0.0, "policy_kwargs": {"net_arch": {"pi": [64, 64], "vf": [64, 64]},
                                                "log_std_init": -1.0}},
+}
+
+
+#: ``rl-residual``'s changes to :data:`HYPERPARAMS`: more sub-envs (a step of the native env
+#: costs about the same for 1 or 32), and a smaller initial exploration: the residual starts
+#: near zero on top of a base that already works
+RESIDUAL_HYPERPARAMS: dict[str, dict[str, Any]] = {
+    "ppo": {"n_envs": 32, "n_steps": 512, "batch_size": 1024,
+            "policy_kwargs": {"net_arch": {"pi": [64, 64], "vf": [64, 64]},
+                              "log_std_init": -1.5}},
+    "sac": {"n_envs": 8, "learning_starts": 10_000},
 }
 
 
@@ -163,6 +179,54 @@ def validation_score(json_path: str | Path, env_id: str, *, seed: int,
             "improvement_pct": 100.0 * (1.0 - float(np.mean(with_pol)) / float(np.mean(none)))}
 
 
+def residual_validation_score(json_path: str | Path, env_id: str, *, seed: int,
+                              n: int = 4) -> dict[str, float]:
+    """Mean max |e| (um) of ``rl-residual`` with the policy ``json_path``, of its base alone
+    (``kalman``) and of no compensation, on ``n`` fresh training references, each on its own
+    plant drawn as in training.
+
+    The references are drawn with ``seed + 10_000`` and the plants with the seeds
+    ``10_000 + seed * n + i`` (far from the benchmark's plants of seeds 0, 1, ...): neither is
+    seen in training nor scored by the benchmark.
+    """
+    from fricbench.bench.plants import draw_plant, nominal_told
+    from fricbench.compensators import make_compensator
+
+    axis, task = env_setup(env_id)
+    task = replace(task, randomize=Randomization())
+    refs = training_references(n, seed=seed + 10_000, duration=10.0, ts=axis.controller.ts)
+    comps = {"none": make_compensator("none"), "base": make_compensator("kalman"),
+             "policy": make_compensator("rl-residual", policy=str(json_path))}
+    worst: dict[str, list[float]] = {key: [] for key in comps}
+    for i, ref in enumerate(refs):
+        plant = draw_plant(axis, 10_000 + seed * n + i)
+        for key, comp in comps.items():
+            comp.fit(env_id, seed=seed)
+            env = ServoAxisEnv(axis=nominal_told(axis), task=task, plant=plant)
+            obs, _ = env.reset(seed=i, options={"trajectory": ref})
+            comp.reset(env.episode_context(), seed=i)
+            peak = 0.0
+            while True:
+                obs, _, _, truncated, info = env.step(comp.act(obs))
+                peak = max(peak, float(np.max(np.abs(info["error_m"]))))
+                if truncated:
+                    break
+            worst[key].append(peak)
+    mean = {key: float(np.mean(v)) for key, v in worst.items()}
+    return {"none_max_um": 1e6 * mean["none"], "base_max_um": 1e6 * mean["base"],
+            "policy_max_um": 1e6 * mean["policy"],
+            "improvement_pct": 100.0 * (1.0 - mean["policy"] / mean["none"]),
+            "improvement_over_base_pct": 100.0 * (1.0 - mean["policy"] / mean["base"])}
+
+
+def _load_average() -> list[float] | None:
+    """The machine's 1, 5 and 15 min load averages at the end of training (None if unknown)."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        return None
+
+
 def make_training_env(env_id: str, *, n_envs: int, seed: int, vec_env: str = "native",
                       reference_pool: int = 64) -> Any:
     """The stable-baselines3 ``VecEnv`` an agent trains on, with episode statistics.
@@ -210,7 +274,7 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
                 steps: int = 200_000, seed: int = 0, out: str | Path | None = None,
                 command: str = "", overrides: Mapping[str, Any] | None = None,
                 verbose: int = 0, overwrite: bool = False,
-                vec_env: str = "native") -> TrainResult:
+                vec_env: str = "native", algo: str | None = None) -> TrainResult:
     """Train ``comp_id``'s agent on ``env_id`` and write the policy files.
 
     Parameters
@@ -238,6 +302,9 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     vec_env : {"native", "dummy"}
         How the training env is vectorised (:func:`make_training_env`); the shipped policies
         were trained with ``"dummy"``.
+    algo : {"sac", "ppo"}, optional
+        The algorithm; ``None``: ``ALGOS[comp_id]``. Only ``rl-residual`` takes either (the
+        others name theirs).
 
     Raises
     ------
@@ -248,7 +315,15 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     check_int("steps", steps, 1, 100_000_000)
     check_int("seed", seed, 0)
     check_choice("vec_env", vec_env, VEC_ENVS)
-    algo = ALGOS[comp_id]
+    residual = comp_id == "rl-residual"
+    if algo is None:
+        algo = ALGOS[comp_id]
+    check_choice("algo", algo, ("sac", "ppo"))
+    if not residual and algo != ALGOS[comp_id]:
+        raise ValueError(f"algo={algo!r}: {comp_id} is trained with {ALGOS[comp_id]!r}")
+    if residual and vec_env != "native":
+        raise ValueError(f"vec_env={vec_env!r}: rl-residual trains on the native vector env "
+                         "(its base observer runs over all sub-envs); expected 'native'")
     json_path, weights_name = _out_paths(default_out(comp_id, seed) if out is None else out,
                                          comp_id)
     for path in (json_path, json_path.parent / weights_name):
@@ -258,17 +333,29 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
 
     torch.set_num_threads(1)
     hp = dict(HYPERPARAMS[algo])
+    hp.update(RESIDUAL_HYPERPARAMS[algo] if residual else {})
     hp.update(overrides or {})
+    res_cfg = {k: float(hp.pop(k, v)) for k, v in RESIDUAL.items()} if residual else {}
     n_envs = int(hp.pop("n_envs"))
     pool = int(hp.pop("reference_pool"))
     _, task = env_setup(env_id)
-    vec = make_training_env(env_id, n_envs=n_envs, seed=seed, vec_env=vec_env,
-                            reference_pool=pool)
+    if residual:
+        from stable_baselines3.common.vec_env import VecMonitor
+
+        from fricbench.compensators.residual_env import make_residual_env
+
+        vec = VecMonitor(make_residual_env(env_id, n_envs, seed=seed, reference_pool=pool,
+                                           **res_cfg))
+    else:
+        vec = make_training_env(env_id, n_envs=n_envs, seed=seed, vec_env=vec_env,
+                                reference_pool=pool)
     cls = SAC if algo == "sac" else PPO
     model = cls("MlpPolicy", vec, seed=seed, device="cpu", verbose=verbose, **hp)
+    load_start = _load_average()
     t0 = time.perf_counter()
     model.learn(total_timesteps=steps)
     seconds = time.perf_counter() - t0
+    load_end = _load_average()
     vec.close()
 
     mlp, arch, activation, squash = export_actor(model, algo)
@@ -279,15 +366,30 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     # the exported actor must reproduce stable-baselines3's deterministic action
     probe = np.random.default_rng(seed).standard_normal((64, obs_dim)).astype(np.float32)
     sb3_action, _ = model.predict(probe, deterministic=True)
-    cmd = command or (f"fricbench train {comp_id} --env {env_id} --vec-env {vec_env} "
+    algo_opt = f" --algo {algo}" if residual else ""
+    cmd = command or (f"fricbench train {comp_id}{algo_opt} --env {env_id} --vec-env {vec_env} "
                       f"--steps {steps} --seed {seed} --out {json_path.with_suffix('')}")
-    env_record = {"vec_env": vec_env, "n_envs": n_envs}
+    env_record: dict[str, Any] = {"vec_env": vec_env, "n_envs": n_envs}
     if vec_env == "native":
         env_record["reference_pool"] = pool
+    # the machine's load (1, 5, 15 min) before and after: the wall time depends on it
+    env_record["load_average"] = {"start": load_start, "end": load_end}
+    scale = float(task.action_scale)
+    if residual:
+        from fricbench.compensators.residual_env import training_distribution
+
+        scale = res_cfg["residual_scale"]
+        env_record["residual"] = {
+            "base": {"id": "kalman", "bandwidth": res_cfg["bandwidth"],
+                     "gain": res_cfg["gain"]},
+            "residual_scale_n": scale,
+            "observation": "the env's features, then d_hat / force_scale (the base's estimate)",
+            "reward": "-(e / error_scale)^2 - action_weight r^2 (r: the residual action)",
+            **training_distribution(env_id)}
     spec = PolicySpec(
         algo=algo, obs_dim=obs_dim, act_dim=act_dim,
         net_arch=tuple(arch), activation=activation, squash=squash, action_mode=task.action,
-        action_scale=float(task.action_scale), env_id=env_id, weights=weights_name,
+        action_scale=scale, env_id=env_id, weights=weights_name,
         training={"command": cmd, "seed": seed, "steps": steps, "seconds": round(seconds, 1),
                   **env_record, "hyperparameters": _jsonable(hp),
                   "versions": _versions()})
@@ -297,7 +399,8 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     if diff > 1e-4:
         raise CompensatorError(f"{json_path}: exported actor differs from the trained agent "
                                f"by {diff:g}")
-    val = validation_score(json_path, env_id, seed=seed)
+    val = (residual_validation_score(json_path, env_id, seed=seed) if residual
+           else validation_score(json_path, env_id, seed=seed))
     spec = PolicySpec(**{**spec.__dict__, "training": {**spec.training, "validation": val}})
     save_policy(json_path, spec, mlp)
     return TrainResult(json_path, json_path.parent / weights_name, seconds, val)

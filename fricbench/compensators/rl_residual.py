@@ -1,0 +1,170 @@
+"""``rl-residual``: a learned force added to the ``kalman`` disturbance observer.
+
+RL friction compensation that has worked on real axes runs as a *residual*: a classical
+controller or observer does the bulk of the work and the policy learns only what it misses.
+Here the base is the ``kalman`` disturbance observer (:mod:`fricbench.compensators.kalman`),
+chosen over ``friction-ff`` because it needs no fitting (nothing per machine to get wrong at
+training time), adapts online to whatever plant it runs on, and is defined for every axis an
+episode may draw. The compensation force is::
+
+    u = clip(-gain d_hat, +-F_max) + s_r pi(o, d_hat / F_s)
+
+with ``d_hat`` the observer's disturbance estimate (:class:`~fricbench.compensators.
+residual_base.ObserverBank`, the same filter the policy was trained on top of, see
+:mod:`fricbench.compensators.residual_env`), ``pi`` the policy's deterministic action in
+[-1, 1] on the env's observation plus ``d_hat`` scaled by the observation's force scale, and
+``s_r`` the residual's newtons per unit (the policy JSON's ``action_scale``). The total is
+clipped to the env's action range.
+
+The shipped policy (``fricbench/policies/rl-residual.*``) was trained by
+``fricbench train rl-residual`` on ``fricbench/RandomFriction-v0``'s nominal axis with a plant
+drawn per episode from the benchmark's distribution (:data:`fricbench.bench.plants.
+BENCH_VARIATION`: friction level, static excess above Coulomb, Stribeck velocity, mass and
+damping; encoder and current noise), on seeded ``random`` training references only; its JSON
+records the distribution under ``training.residual``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from fricbench.axis import Axis
+from fricbench.compensators.base import (
+    Compensator,
+    CompensatorError,
+    EpisodeContext,
+    feature_index,
+)
+from fricbench.compensators.residual_base import ObserverBank
+from fricbench.compensators.rl import shipped_policy
+from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
+from fricbench.compensators.training_data import env_setup
+from fricbench.gym.task import n_features
+
+__all__ = ["ResidualRLCompensator", "base_settings"]
+
+
+def base_settings(training: Mapping[str, Any], path: str | Path) -> tuple[float, float]:
+    """``(bandwidth, gain)`` of the base recorded in a residual policy's ``training`` entry.
+
+    Raises
+    ------
+    CompensatorError
+        Naming ``path``, when the entry is missing or is not a ``kalman`` base.
+    """
+    res = training.get("residual")
+    base = res.get("base") if isinstance(res, Mapping) else None
+    if not isinstance(base, Mapping) or base.get("id") != "kalman":
+        raise CompensatorError(f"{path}: training.residual.base={base!r}: expected the kalman "
+                               "base a residual policy was trained on (not a residual policy?)")
+    vals = []
+    for key in ("bandwidth", "gain"):
+        val = base.get(key)
+        if isinstance(val, bool) or not isinstance(val, (int, float)) \
+                or not np.isfinite(val) or val < 0 or (key == "bandwidth" and val == 0):
+            raise CompensatorError(f"{path}: training.residual.base.{key}={val!r}: expected "
+                                   "a positive number")
+        vals.append(float(val))
+    return vals[0], vals[1]
+
+
+class ResidualRLCompensator(Compensator):
+    """The ``kalman`` observer's force plus a trained policy's residual force.
+
+    Parameters
+    ----------
+    policy : str or Path or None
+        Policy JSON of a residual policy (weights next to it); ``None``: the shipped
+        ``rl-residual`` policy.
+
+    Attributes
+    ----------
+    policy_ : NumpyPolicy
+        The loaded actor (after :meth:`fit`).
+    bandwidth_, gain_ : float
+        The base observer's settings, read from the policy (those it was trained on).
+    """
+
+    id = "rl-residual"
+    action_mode: ClassVar[str] = "force"
+    learns: ClassVar[bool] = True
+    category: ClassVar[str] = "policy"
+
+    def __init__(self, *, policy: str | Path | None = None) -> None:
+        super().__init__()
+        if policy is not None and not isinstance(policy, (str, Path)):
+            raise TypeError(f"policy={policy!r}: expected a path to a policy JSON or None")
+        if isinstance(policy, str) and not policy:
+            raise ValueError("policy='': expected a path to a policy JSON or None")
+        self.policy = policy
+
+    @property
+    def policy_path(self) -> Path:
+        """The policy JSON this compensator loads."""
+        return shipped_policy("rl-residual") if self.policy is None else Path(self.policy)
+
+    def fit(self, env_id: str, *, seed: int = 0,
+            axis: Axis | None = None) -> ResidualRLCompensator:
+        """Load the trained residual policy and check it fits ``env_id`` (no training here;
+        ``axis`` is not used: the policy was learned offline on drawn plants).
+
+        Raises
+        ------
+        CompensatorError
+            Naming the file, when it is missing or corrupt, acts in another mode, was not
+            trained as a residual, or was built for another observation layout.
+        """
+        path = self.policy_path
+        pol = load_policy(path)
+        spec = pol.spec
+        if spec.action_mode != self.action_mode:
+            raise CompensatorError(f"{path}: trained for {spec.action_mode!r} actions; {self.id} "
+                                   f"acts in {self.action_mode!r} mode")
+        self.bandwidth_, self.gain_ = base_settings(spec.training, path)
+        _, task = env_setup(env_id)
+        nf = n_features(task.observation)
+        if spec.obs_dim != nf + 1 or spec.act_dim != 1:
+            raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
+                                   f"{self.id} on {env_id} needs {nf + 1} features (the env's "
+                                   f"{nf} and the base's estimate) and 1 action per axis")
+        self.policy_: NumpyPolicy = pol
+        self._fitted = True
+        return self
+
+    def _reset(self, context: EpisodeContext, seed: int | None) -> None:
+        cfg = context.task.observation
+        nf = n_features(cfg)
+        if nf + 1 != self.policy_.spec.obs_dim:
+            raise CompensatorError(f"{self.policy_path}: obs_dim={self.policy_.spec.obs_dim} "
+                                   f"but the episode's env has {nf} features per axis (+1)")
+        d = context.n_axes
+        self._nf = nf
+        self._scale = context.task.action_scale
+        self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
+        self._e_cols = np.array([feature_index("error", i, cfg) for i in range(d)])
+        self._f_cols = np.array([feature_index("motor_force", i, cfg) for i in range(d)])
+        ref = context.reference
+        self._xref = np.atleast_2d(ref.x)
+        # the base exactly as kalman builds it: its filter, clipped at the env's action scale
+        self._bank = ObserverBank(context.nominal_axis, d, bandwidth=self.bandwidth_,
+                                  gain=self.gain_, max_force=self._scale)
+        rows = np.arange(d)
+        self._bank.reset(rows, self._xref[:, 0], np.atleast_2d(ref.v)[:, 0])
+        self._residual_scale = self.policy_.spec.action_scale
+        self._k = 0
+
+    def _act(self, observation: np.ndarray) -> np.ndarray:
+        k = min(self._k, self._xref.shape[1] - 1)
+        # z = x_ref - e; the motor force of the last sample drives the prediction
+        z = self._xref[:, k] - observation[self._e_cols] * self._e_scale
+        self._bank.step(z, observation[self._f_cols] * self._f_scale)
+        self._k += 1
+        d = self.context.n_axes
+        rows = observation[: d * self._nf].reshape(d, self._nf)
+        aug = np.column_stack([rows, self._bank.d_hat / self._f_scale])
+        residual = self.policy_(aug)[:, 0] * self._residual_scale
+        return (self._bank.force() + residual) / self._scale
