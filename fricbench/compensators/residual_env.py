@@ -148,7 +148,10 @@ class ResidualVecEnv(VecEnvWrapper):
         self._i_noise = told.controller.kt * self.inner.variation.current_noise / self._f_s
         self.bank = ObserverBank(told, venv.num_envs, bandwidth=bandwidth, gain=gain,
                                  max_force=self._scale)
-        nf = venv.observation_space.shape[0]
+        shape = venv.observation_space.shape
+        if not shape:
+            raise TypeError("venv: expected a Box observation space")
+        nf = shape[0]
         obs_space = spaces.Box(-np.inf, np.inf, (nf + 1,), np.float32)
         super().__init__(venv, observation_space=obs_space, action_space=venv.action_space)
         self._noise_rng = np.random.default_rng([check_int("seed", seed, 0), _NOISE_TAG])
@@ -163,8 +166,8 @@ class ResidualVecEnv(VecEnvWrapper):
     def _noisy(self, obs: np.ndarray) -> np.ndarray:
         if self._i_noise > 0.0:
             # F_meas = kt (i + n_i): the drive reports a noisy current
-            obs[:, 6] += (self._i_noise * self._noise_rng.standard_normal(obs.shape[0])
-                          ).astype(np.float32)
+            draws = self._noise_rng.standard_normal(obs.shape[0])
+            obs[:, 6] += np.asarray(self._i_noise * draws, dtype=np.float32)
         return obs
 
     def _observe(self, obs: np.ndarray, ref_id: np.ndarray, k: np.ndarray,

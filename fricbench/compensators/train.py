@@ -344,8 +344,10 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
 
         from fricbench.compensators.residual_env import make_residual_env
 
-        vec = VecMonitor(make_residual_env(env_id, n_envs, seed=seed, reference_pool=pool,
-                                           **res_cfg))
+        vec = VecMonitor(make_residual_env(
+            env_id, n_envs, seed=seed, reference_pool=pool,
+            residual_scale=res_cfg["residual_scale"], bandwidth=res_cfg["bandwidth"],
+            gain=res_cfg["gain"]))
     else:
         vec = make_training_env(env_id, n_envs=n_envs, seed=seed, vec_env=vec_env,
                                 reference_pool=pool)
