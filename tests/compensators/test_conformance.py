@@ -173,6 +173,6 @@ def test_rl_policy_files_are_not_pickles() -> None:
 
     folder = Path(str(resources.files("fricbench").joinpath("policies")))
     assert not list(folder.glob("*.zip"))
-    for cid in ("rl-sac", "rl-ppo"):
+    for cid in ("rl-sac", "rl-ppo", "rl-residual"):
         assert (folder / f"{cid}.json").is_file()
         assert (folder / f"{cid}.pt").is_file()
