@@ -64,8 +64,8 @@ from filterpy.kalman import ExtendedKalmanFilter
 
 from fricbench._validation import check_nonneg, check_positive
 from fricbench.axis import Axis
-from fricbench.compensators.base import Compensator, EpisodeContext, feature_index
-from fricbench.compensators.kalman import dob_model
+from fricbench.compensators.base import EpisodeContext
+from fricbench.compensators.kalman import ForceObserver, dob_model
 
 __all__ = ["EKFModel", "ExtendedFrictionObserver", "ekf_model", "ekf_transition",
            "stribeck_shape"]
@@ -256,7 +256,7 @@ class _FrictionEKF(ExtendedKalmanFilter):  # type: ignore[misc]
         p += buf
 
 
-class ExtendedFrictionObserver(Compensator):
+class ExtendedFrictionObserver(ForceObserver):
     """EKF on ``[x, v, F_c, d]`` with a smooth Stribeck law; feeds back ``F_f_hat - d_hat``.
 
     Parameters
@@ -336,15 +336,7 @@ class ExtendedFrictionObserver(Compensator):
         axis = context.nominal_axis
         model = ekf_model(axis, self.eps, self.residual_time)
         q, r = self._covariances(axis, model)
-        ref = context.reference
-        self._xref = np.atleast_2d(ref.x)
-        v0 = np.atleast_2d(ref.v)[:, 0]
-        cfg = context.task.observation
-        self._cols = [(feature_index("error", i, cfg), feature_index("motor_force", i, cfg))
-                      for i in range(context.n_axes)]
-        self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
-        self._scale = context.task.action_scale
-        self._limit = self._scale if self.max_force is None else self.max_force
+        v0 = self._read_episode(context)
         level_sd = self.level_std * max(model.fc, 1.0)
         self._model = model
         self._filters = []

@@ -36,7 +36,7 @@ from fricbench._validation import check_nonneg, check_positive
 from fricbench.axis import Axis
 from fricbench.compensators.base import Compensator, EpisodeContext, feature_index
 
-__all__ = ["KalmanDisturbanceObserver", "dob_model", "observer_poles"]
+__all__ = ["KalmanDisturbanceObserver", "dob_model", "observer_poles", "ForceObserver"]
 
 _R_FLOOR = 1.0e-18  # m^2: (1 nm)^2, keeps the filter well posed for an ideal sensor
 
@@ -95,7 +95,34 @@ def observer_poles(axis: Axis, bandwidth: float) -> np.ndarray:
     return np.log(z.astype(complex)) / axis.controller.ts
 
 
-class KalmanDisturbanceObserver(Compensator):
+class ForceObserver(Compensator):
+    """Base of the observers fed back as a force (``kalman``, ``ekf``): what they read from
+    the episode. Subclasses set ``max_force`` in their constructor."""
+
+    max_force: float | None = None
+    _xref: np.ndarray
+    _cols: list[tuple[int, int]]
+    _e_scale: float
+    _f_scale: float
+    _scale: float
+    _limit: float
+
+    def _read_episode(self, context: EpisodeContext) -> np.ndarray:
+        """Read the reference positions (``_xref``, one row per axis), each axis's error and
+        motor-force columns and their scales, the force per unit action and the largest force
+        fed back (``max_force``, else one unit action); return the start speeds."""
+        ref = context.reference
+        self._xref = np.atleast_2d(ref.x)
+        cfg = context.task.observation
+        self._cols = [(feature_index("error", i, cfg), feature_index("motor_force", i, cfg))
+                      for i in range(context.n_axes)]
+        self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
+        self._scale = context.task.action_scale
+        self._limit = self._scale if self.max_force is None else self.max_force
+        return np.atleast_2d(ref.v)[:, 0]
+
+
+class KalmanDisturbanceObserver(ForceObserver):
     """Disturbance observer: filterpy ``KalmanFilter`` on ``[x, v, d]``, feeds back ``-d_hat``.
 
     Parameters
@@ -134,15 +161,7 @@ class KalmanDisturbanceObserver(Compensator):
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
         axis = context.nominal_axis
         mdl = dob_model(axis, self.bandwidth)
-        ref = context.reference
-        self._xref = np.atleast_2d(ref.x)
-        v0 = np.atleast_2d(ref.v)[:, 0]
-        cfg = context.task.observation
-        self._cols = [(feature_index("error", i, cfg), feature_index("motor_force", i, cfg))
-                      for i in range(context.n_axes)]
-        self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
-        self._scale = context.task.action_scale
-        self._limit = self._scale if self.max_force is None else self.max_force
+        v0 = self._read_episode(context)
         self._filters = []
         for i in range(context.n_axes):
             kf = KalmanFilter(dim_x=3, dim_z=1, dim_u=1)
