@@ -43,3 +43,22 @@ def test_constructor_validates() -> None:
         FrictionFeedforward(v_eps=-1.0)
     with pytest.raises(TypeError, match="n_runs"):
         FrictionFeedforward(n_runs=1.5)  # type: ignore[arg-type]
+
+
+def test_pick_smoothing_breaks_a_tie_of_maxima_by_the_rms() -> None:
+    """Mean maxima within the sensor's step are a tie, decided by the RMS error: one
+    run's maximum moving by one encoder step must not flip the choice."""
+    from fricbench.compensators.friction_ff import pick_smoothing
+
+    q = 0.25e-6
+    grid = [(14.2544e-6, 1.90e-6, 2e-4, 2), (14.2545e-6, 1.70e-6, 2.5e-5, 2),
+            (14.3169e-6, 1.60e-6, 5e-5, 1), (20.0e-6, 0.5e-6, 1e-3, 0)]
+    assert pick_smoothing(grid, q)[2] == 5e-5  # within one step of the lowest: lowest RMS
+    bumped = [(g[0] + (q / 4 if g[2] == 2e-4 else 0.0),) + g[1:] for g in grid]
+    assert pick_smoothing(bumped, q)[2] == pick_smoothing(grid, q)[2]
+    # a finer sensor: only the 0.1 % tie is left
+    assert pick_smoothing(grid, 1e-9)[2] == 2.5e-5
+    # a clear winner on the maxima wins whatever its RMS
+    assert pick_smoothing([(10e-6, 3e-6, 1e-4, 0), (12e-6, 1e-6, 1e-3, 0)], q)[2] == 1e-4
+    with pytest.raises(ValueError, match="grid"):
+        pick_smoothing([], q)
