@@ -36,7 +36,8 @@ from fricbench._validation import check_nonneg, check_positive
 from fricbench.axis import Axis
 from fricbench.compensators.base import Compensator, EpisodeContext, feature_index
 
-__all__ = ["KalmanDisturbanceObserver", "dob_model", "observer_poles", "ForceObserver"]
+__all__ = ["KalmanDisturbanceObserver", "dob_model", "observer_poles", "ForceObserver",
+           "initial_covariance"]
 
 _R_FLOOR = 1.0e-18  # m^2: (1 nm)^2, keeps the filter well posed for an ideal sensor
 
@@ -79,6 +80,13 @@ def dob_model(axis: Axis, bandwidth: float) -> dict[str, np.ndarray]:
     qd = 0.5 * (qd + qd.T)
     return {"F": phi, "B": gamma, "H": np.array([[1.0, 0.0, 0.0]]), "Q": qd,
             "R": np.array([[r]]), "q_d": np.array(q_d)}
+
+
+def initial_covariance(axis: Axis, mdl: dict[str, np.ndarray]) -> np.ndarray:
+    """``P_0`` of the observer: certain of position and velocity (at rest on the reference),
+    unsure of ``d`` by the nominal breakaway force (``mdl``: :func:`dob_model`'s)."""
+    fs = axis.friction.kernel_params()["fs"]
+    return np.diag([mdl["R"][0, 0], 1e-8, fs**2 + 1.0])
 
 
 def observer_poles(axis: Axis, bandwidth: float) -> np.ndarray:
@@ -169,8 +177,7 @@ class KalmanDisturbanceObserver(ForceObserver):
             kf.Q, kf.R = mdl["Q"].copy(), mdl["R"].copy()
             kf.x = np.array([[self._xref[i, 0]], [v0[i]], [0.0]])
             # start certain of x and v (at rest on the reference), unsure of d (breakaway)
-            kf.P = np.diag([mdl["R"][0, 0], 1e-8, axis.friction.kernel_params()["fs"] ** 2
-                            + 1.0])
+            kf.P = initial_covariance(axis, mdl)
             self._filters.append(kf)
         self._k = 0
         self.d_hat_: list[float] = []

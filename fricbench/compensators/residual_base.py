@@ -24,19 +24,12 @@ import numpy as np
 
 from fricbench._validation import check_int, check_nonneg, check_positive
 from fricbench.axis import Axis
-from fricbench.compensators.kalman import dob_model
+from fricbench.compensators.kalman import dob_model, initial_covariance
 
 __all__ = ["ObserverBank", "gain_schedule"]
 
 _MAX_SCHEDULE = 20_000
 """Longest gain schedule, samples (20 s at 1 kHz); the gain settles within a few hundred."""
-
-
-def _initial_covariance(axis: Axis, mdl: dict[str, np.ndarray]) -> np.ndarray:
-    """``P_0`` of :class:`~fricbench.compensators.kalman.KalmanDisturbanceObserver`: certain
-    of position and velocity (at rest on the reference), unsure of ``d`` (breakaway)."""
-    fs = axis.friction.kernel_params()["fs"]
-    return np.diag([mdl["R"][0, 0], 1e-8, fs**2 + 1.0])
 
 
 def gain_schedule(axis: Axis, bandwidth: float, *, rtol: float = 1e-13) -> np.ndarray:
@@ -62,7 +55,7 @@ def gain_schedule(axis: Axis, bandwidth: float, *, rtol: float = 1e-13) -> np.nd
     """
     mdl = dob_model(axis, bandwidth)
     f, h, q, r = mdl["F"], mdl["H"], mdl["Q"], mdl["R"]
-    p = _initial_covariance(axis, mdl)
+    p = initial_covariance(axis, mdl)
     eye = np.eye(3)
     gains = []
     for _ in range(_MAX_SCHEDULE):
