@@ -123,8 +123,12 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         for opt in ("time", "reference", "position"):
             if getattr(args, opt) is not None:
                 raise ValueError(f"--{opt} {getattr(args, opt)}: only with --reference-csv")
-        args.trajectory = args.trajectory or "m_serial"
-        ref = make_trajectory(args.trajectory, ts=axis.controller.ts)
+        # the env's own trajectories with the parameters its spec gives them (EMPS-v0's stroke
+        # fits its rail); by default its first one (the circle env draws a circle)
+        choices = spec.task.trajectories
+        args.trajectory = args.trajectory or (choices[0].id if choices else "m_serial")
+        params = next((c.params for c in choices if c.id == args.trajectory), {})
+        ref = make_trajectory(args.trajectory, ts=axis.controller.ts, **params)
     if args.polar and ref.name != "circle":
         raise ValueError(f"--polar {args.polar}: the ballbar plot is drawn for the circle "
                          f"trajectory, not {args.trajectory!r} (use --trajectory circle)")
@@ -396,7 +400,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: %(default)s)")
     p.add_argument("--trajectory", default=None,
                    help=f"trajectory id, one of: {', '.join(trajectory_registry.ids())} "
-                        "(circle needs a 2-axis env; default: m_serial)")
+                        "(circle needs a 2-axis env; default: the env's first, e.g. "
+                        "m_serial on PaperAxis-v0, circle on CircleContouring-v0; one of the "
+                        "env's own is drawn with the parameters its spec gives it)")
     p.add_argument("--reference-csv", metavar="RUN.csv",
                    help="replay the reference of a logged run instead of a trajectory (m, at "
                         "the env's sample time): to check a twin against its measurement")

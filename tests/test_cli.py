@@ -107,6 +107,11 @@ def test_simulate_writes_the_ballbar_plot_of_a_circle(tmp_path: Path,
                  "--polar", str(polar)]) == 0
     assert polar.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "radial error magnified x" in capsys.readouterr().out
+    # the circle env's own trajectory is the default
+    default = tmp_path / "default.png"
+    assert main(["simulate", "--env", "fricbench/CircleContouring-v0", "--polar",
+                 str(default)]) == 0
+    assert "CircleContouring-v0 / circle" in capsys.readouterr().out and default.is_file()
     other = tmp_path / "no.png"
     assert main(["simulate", "--trajectory", "s_curve", "--polar", str(other)]) == 2
     assert "circle" in capsys.readouterr().err and not other.exists()
