@@ -12,6 +12,7 @@ from typing import Any
 from fricbench.compensators.base import (
     CATEGORIES,
     Compensator,
+    CompensatorBatch,
     CompensatorError,
     EpisodeContext,
     NotFittedError,
@@ -22,6 +23,7 @@ from fricbench.registry import Registry
 __all__ = [
     "CATEGORIES",
     "Compensator",
+    "CompensatorBatch",
     "CompensatorError",
     "EpisodeContext",
     "NotFittedError",

@@ -18,7 +18,7 @@ same reference on the machine before the scored run through ``context.rehearse``
 from __future__ import annotations
 
 import abc
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -32,6 +32,7 @@ from fricbench.trajectories import Reference
 __all__ = [
     "CATEGORIES",
     "Compensator",
+    "CompensatorBatch",
     "CompensatorError",
     "EpisodeContext",
     "NotFittedError",
@@ -206,6 +207,23 @@ class Compensator(abc.ABC):
     def end_episode(self) -> None:  # noqa: B027 - optional hook
         """Called after the scored episode (optional hook)."""
 
+    @classmethod
+    def batch(cls, members: Sequence[Compensator]) -> CompensatorBatch:
+        """One object acting for the episodes of ``members``, stepped together.
+
+        ``members`` are instances of this class, each :meth:`reset` on its own episode (its
+        plant's seed, its context) and not yet stepped. Row ``i`` of the batch's
+        :meth:`CompensatorBatch.act` is member ``i``'s observation and action: exactly, bit for
+        bit, what ``members[i].act`` would return, whatever the other rows (the benchmark steps
+        the seeds of a cell together and its tests check this for every registered
+        compensator). After this call the episode is the batch's: do not step the members.
+
+        The default acts row by row through each member. Subclasses whose step vectorises
+        over episodes (an observer bank, a policy network) return a
+        :class:`CompensatorBatch` subclass that steps every row in one call.
+        """
+        return CompensatorBatch(members)
+
     # -- to implement -------------------------------------------------------------------------
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:  # noqa: B027
         """Prepare for the episode (precompute feedforward, reset filters, ...)."""
@@ -221,3 +239,62 @@ class Compensator(abc.ABC):
         if self._context is None:
             raise RuntimeError(f"{self.id}: no episode started")
         return self._context
+
+
+class CompensatorBatch:
+    """Episodes of one compensator class stepped together (:meth:`Compensator.batch`).
+
+    Public :meth:`act` checks as :meth:`Compensator.act` does, per row; subclasses write
+    ``_act_rows``. The default steps each member in turn.
+
+    Parameters
+    ----------
+    members : sequence of Compensator
+        Instances of one class, each reset on its episode; all on episodes with the same
+        number of axes.
+    """
+
+    def __init__(self, members: Sequence[Compensator]) -> None:
+        self.members = list(members)
+        if not self.members:
+            raise ValueError("members: expected at least one compensator")
+        kinds = {type(m) for m in self.members}
+        if len(kinds) > 1:
+            raise TypeError(f"members: instances of {sorted(k.__name__ for k in kinds)}; "
+                            "expected one class")
+        dims = {m.context.n_axes for m in self.members}
+        if len(dims) > 1:
+            raise ValueError(f"members: episodes of {sorted(dims)} axes; expected one number")
+        self.n_axes = dims.pop()
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    def act(self, observations: np.ndarray) -> np.ndarray:
+        """Actions in [-1, 1], shape (N, D) float32, for observations of shape (N, obs_dim);
+        raises, naming the row, on NaN/inf in or out."""
+        obs = np.asarray(observations, dtype=np.float64)
+        if obs.ndim != 2 or obs.shape[0] != len(self.members):
+            raise ValueError(f"observations has shape {obs.shape}: expected "
+                             f"({len(self.members)}, obs_dim)")
+        bad = ~np.isfinite(obs).all(axis=1)
+        if bad.any():
+            raise ValueError(f"{self.members[0].id}: observation of row {int(np.argmax(bad))} "
+                             "contains NaN or inf")
+        action = np.asarray(self._act_rows(obs), dtype=np.float64).reshape(len(self.members),
+                                                                           self.n_axes)
+        bad = ~np.isfinite(action).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise CompensatorError(f"{self.members[0].id}: produced a non-finite action "
+                                   f"{action[i]!r} (row {i})")
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+    def _act_rows(self, observations: np.ndarray) -> np.ndarray:
+        """Actions of every row for validated observations (default: each member's act)."""
+        return np.stack([m.act(o) for m, o in zip(self.members, observations, strict=True)])
+
+    def end_episode(self) -> None:
+        """Each member's :meth:`Compensator.end_episode`."""
+        for m in self.members:
+            m.end_episode()
