@@ -9,6 +9,7 @@ before plants were drawn: its seeds are copies).
 
 from __future__ import annotations
 
+import copy
 import inspect
 import os
 import time
@@ -50,6 +51,7 @@ __all__ = [
     "plant_axes",
     "plan_benchmark",
     "read_compensator_config",
+    "run_cell",
     "run_benchmark",
     "run_episode",
 ]
@@ -154,63 +156,46 @@ def _env_trajectory(env_id: str, trajectory: str) -> str | TrajectoryChoice:
     return trajectory
 
 
-def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = False,
-                reference: Reference | None = None, nominal: bool = False,
-                fast: bool = True) -> EpisodeRecord:
-    """Score ``compensator`` on one episode (on the plant of ``task.seed``, or on the nominal
-    axis with ``nominal``); any exception becomes a failed record.
+class _Episode:
+    """One scored episode being run: its env, first observation, reference and traces."""
 
-    With ``fast``, a compensator whose actions do not depend on the observation
-    (:meth:`~fricbench.compensators.Compensator.planned_actions`) runs in one kernel call
-    (:meth:`~fricbench.gym.ServoAxisEnv.run_actions`, the same numbers as the step loop);
-    ``fast=False`` steps the env one sample at a time for every compensator.
-    """
-    rec = EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed,
-                        plant="nominal" if nominal else "seed")
-    try:
-        env = bench_env(task.env, compensator, task.seed, nominal)
-        obs, _ = env.reset(seed=task.seed,
-                           options={"trajectory": reference or _env_trajectory(
-                               task.env, task.trajectory)})
+    def __init__(self, compensator: Compensator, task: BenchTask,
+                 reference: Reference | None, nominal: bool) -> None:
+        self.env = env = bench_env(task.env, compensator, task.seed, nominal)
+        self.obs, _ = env.reset(seed=task.seed,
+                                options={"trajectory": reference or _env_trajectory(
+                                    task.env, task.trajectory)})
         ref = env.reference
         assert ref is not None
-        ctx = env.episode_context()
+        self.ref = ref
         # rehearsal seeds differ from the scored run's noise seed
-        compensator.reset(ctx, seed=task.seed + 7919)
-        d, k_total = ref.n_axes, ref.n_samples
-        err = np.zeros((d, k_total))
-        effort = np.zeros((d, k_total))
-        err[:, 0] = np.atleast_2d(ref.x)[:, 0] - env.true_position
-        t_act = 0.0
-        t0 = time.perf_counter()
-        plan = compensator.planned_actions(k_total - 1) if fast else None
-        if plan is not None:
-            # open loop: the whole episode in one kernel call, the same numbers as the loop
-            t_act = time.perf_counter() - t0
-            err[:, 1:] = env.run_actions(plan)
-            effort[:, :-1] = np.asarray(plan, dtype=float) * env.task.action_scale
-        for k in range(k_total - 1 if plan is None else 0):
-            t0 = time.perf_counter()
-            action = compensator.act(obs)
-            t_act += time.perf_counter() - t0
-            obs, _, _, truncated, info = env.step(action)
-            err[:, k + 1] = info["error_m"]
-            effort[:, k] = np.asarray(action, dtype=float) * env.task.action_scale
-            if truncated:
-                break
-        compensator.end_episode()
+        compensator.reset(env.episode_context(), seed=task.seed + 7919)
+        self.d, self.k_total = ref.n_axes, ref.n_samples
+        self.err = np.zeros((self.d, self.k_total))
+        self.effort = np.zeros((self.d, self.k_total))
+        self.err[:, 0] = np.atleast_2d(ref.x)[:, 0] - env.true_position
+        self.t_act = 0.0
+
+    def run_plan(self, plan: np.ndarray) -> None:
+        """The whole episode in one kernel call (the same numbers as the step loop)."""
+        self.err[:, 1:] = self.env.run_actions(plan)
+        self.effort[:, :-1] = np.asarray(plan, dtype=float) * self.env.task.action_scale
+
+    def score(self, rec: EpisodeRecord, keep_trace: bool) -> None:
+        """Fill ``rec`` with the episode's metrics (and its trace with ``keep_trace``)."""
+        env, ref, d, k_total, err = self.env, self.ref, self.d, self.k_total, self.err
         x_ref = np.atleast_2d(ref.x)
         x_true = x_ref - err
         v_ref = np.atleast_2d(ref.v)
         sq = (lambda a: a[0] if d == 1 else a)
-        m = score_run(ref.t, sq(x_ref), sq(x_true), sq(v_ref), sq(effort))
+        m = score_run(ref.t, sq(x_ref), sq(x_true), sq(v_ref), sq(self.effort))
         rec.max_error, rec.rms_error, rec.reversal_peak = m.max_error, m.rms_error, \
             m.reversal_peak
         rec.circular_deviation, rec.reversal_spike = m.circular_deviation, m.reversal_spike
         rec.effort_rms = m.effort_rms
         rec.effort_unit = "N" if env.task.action == "force" else "m"
         rec.n_steps = k_total - 1
-        rec.step_time = t_act / max(1, k_total - 1)
+        rec.step_time = self.t_act / max(1, k_total - 1)
         if keep_trace:
             stride = max(1, k_total // 4000)
             rec.trace_t = ref.t[::stride].copy()
@@ -222,12 +207,127 @@ def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = Fa
                 # the polar picture reads every sample: a glitch lasts a few ms
                 rec.trace_ballbar = circle_run(ref, x_true)
         env.close()
-    except Exception as exc:  # noqa: BLE001 - a failing compensator is a row, not a crash
-        rec.status = "failed"
-        last = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
-        where = f" ({os.path.basename(last.filename)}:{last.lineno})" if last else ""
-        rec.reason = f"{type(exc).__name__}: {exc}{where}"[:300]
+
+
+def _new_record(task: BenchTask, nominal: bool) -> EpisodeRecord:
+    return EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed,
+                         plant="nominal" if nominal else "seed")
+
+
+def _failed(rec: EpisodeRecord, exc: BaseException) -> EpisodeRecord:
+    rec.status = "failed"
+    last = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    where = f" ({os.path.basename(last.filename)}:{last.lineno})" if last else ""
+    rec.reason = f"{type(exc).__name__}: {exc}{where}"[:300]
     return rec
+
+
+def run_episode(compensator: Compensator, task: BenchTask, keep_trace: bool = False,
+                reference: Reference | None = None, nominal: bool = False,
+                fast: bool = True) -> EpisodeRecord:
+    """Score ``compensator`` on one episode (on the plant of ``task.seed``, or on the nominal
+    axis with ``nominal``); any exception becomes a failed record.
+
+    With ``fast``, a compensator whose actions do not depend on the observation
+    (:meth:`~fricbench.compensators.Compensator.planned_actions`) runs in one kernel call
+    (:meth:`~fricbench.gym.ServoAxisEnv.run_actions`, the same numbers as the step loop);
+    ``fast=False`` steps the env one sample at a time for every compensator.
+    """
+    rec = _new_record(task, nominal)
+    try:
+        ep = _Episode(compensator, task, reference, nominal)
+        env, obs = ep.env, ep.obs
+        t0 = time.perf_counter()
+        plan = compensator.planned_actions(ep.k_total - 1) if fast else None
+        if plan is not None:
+            ep.t_act = time.perf_counter() - t0
+            ep.run_plan(plan)
+        for k in range(ep.k_total - 1 if plan is None else 0):
+            t0 = time.perf_counter()
+            action = compensator.act(obs)
+            ep.t_act += time.perf_counter() - t0
+            obs, _, _, truncated, info = env.step(action)
+            ep.err[:, k + 1] = info["error_m"]
+            ep.effort[:, k] = np.asarray(action, dtype=float) * env.task.action_scale
+            if truncated:
+                break
+        compensator.end_episode()
+        ep.score(rec, keep_trace)
+    except Exception as exc:  # noqa: BLE001 - a failing compensator is a row, not a crash
+        _failed(rec, exc)
+    return rec
+
+
+def run_cell(members: Sequence[Compensator], tasks: Sequence[BenchTask],
+             keep_trace: Sequence[bool] | None = None, nominal: bool = False,
+             ) -> list[EpisodeRecord]:
+    """Score the episodes of one cell (one env, compensator and trajectory; a seed each),
+    ``members[i]`` on ``tasks[i]``: the same records as :func:`run_episode` on each, faster.
+
+    Compensators with planned actions run each in one kernel call. The others are stepped
+    together: their envs in lockstep (:class:`~fricbench.gym.lockstep.LockstepEnvs`, one kernel
+    call per sample for every seed) and their actions from one
+    :meth:`~fricbench.compensators.Compensator.batch` (one call per sample), both exactly the
+    numbers of each episode run alone. Should the lockstep fail (a diverging plant, a
+    compensator raising, references of different lengths), its episodes are rerun one by one,
+    so each failure is the record of its own seed.
+    """
+    from fricbench.gym.lockstep import LockstepEnvs
+
+    if len(members) != len(tasks):
+        raise ValueError(f"members: {len(members)} compensators for {len(tasks)} tasks")
+    keep = list(keep_trace) if keep_trace is not None else [False] * len(tasks)
+    # one object given for several seeds (a nominal fit): each episode needs its own state
+    members = [copy.deepcopy(m) if any(m is o for o in members[:i]) else m
+               for i, m in enumerate(members)]
+    records = [_new_record(t, nominal) for t in tasks]
+    stepped: list[int] = []
+    episodes: dict[int, _Episode] = {}
+    for i, (comp, task) in enumerate(zip(members, tasks, strict=True)):
+        try:
+            ep = _Episode(comp, task, None, nominal)
+            t0 = time.perf_counter()
+            plan = comp.planned_actions(ep.k_total - 1)
+            if plan is None:
+                episodes[i] = ep
+                stepped.append(i)
+                continue
+            ep.t_act = time.perf_counter() - t0
+            ep.run_plan(plan)
+            comp.end_episode()
+            ep.score(records[i], keep[i])
+        except Exception as exc:  # noqa: BLE001 - a failing compensator is a row, not a crash
+            _failed(records[i], exc)
+    if len(stepped) == 1:
+        i = stepped[0]
+        records[i] = run_episode(members[i], tasks[i], keep_trace=keep[i], nominal=nominal)
+    elif stepped:
+        try:
+            eps = [episodes[i] for i in stepped]
+            lock = LockstepEnvs([ep.env for ep in eps])
+            batch = type(members[stepped[0]]).batch([members[i] for i in stepped])
+            obs = np.stack([ep.obs for ep in eps])
+            t_act = 0.0
+            for k in range(lock.n_samples - 1):
+                t0 = time.perf_counter()
+                actions = batch.act(obs)
+                t_act += time.perf_counter() - t0
+                obs, err = lock.step(actions)
+                for j, ep in enumerate(eps):
+                    ep.err[:, k + 1] = err[j]
+                    ep.effort[:, k] = np.asarray(actions[j], dtype=float) \
+                        * ep.env.task.action_scale
+            lock.close()
+            batch.end_episode()
+            for i, ep in zip(stepped, eps, strict=True):
+                # the batch's act time shared by its rows: the cost of one episode's step
+                ep.t_act = t_act / len(eps)
+                ep.score(records[i], keep[i])
+        except Exception:  # noqa: BLE001 - rerun alone: each failure is its own seed's record
+            for i in stepped:
+                records[i] = run_episode(members[i], tasks[i], keep_trace=keep[i],
+                                         nominal=nominal)
+    return records
 
 
 def _fit_one(comp_id: str, fit_env: str, seed: int,
@@ -288,7 +388,7 @@ def _indexed(i: int, fn: Callable[..., Any], args: tuple[Any, ...]) -> tuple[int
     return i, fn(*args)
 
 
-def _joblib_map(n_jobs: int, progress: Callable[[], None] | None) -> MapFn:
+def _joblib_map(n_jobs: int, progress: Callable[[Any], None] | None) -> MapFn:
     from joblib import Parallel, delayed
 
     def map_fn(fn: Callable[..., Any],
@@ -296,13 +396,13 @@ def _joblib_map(n_jobs: int, progress: Callable[[], None] | None) -> MapFn:
         par = Parallel(n_jobs=n_jobs, return_as="generator_unordered")
         for res in par(delayed(_indexed)(i, fn, args) for i, args in enumerate(arglist)):
             if progress:
-                progress()
+                progress(res[1])
             yield res
 
     return map_fn
 
 
-def _ray_map(address: str | None, progress: Callable[[], None] | None) -> MapFn:
+def _ray_map(address: str | None, progress: Callable[[Any], None] | None) -> MapFn:
     import ray
 
     if not ray.is_initialized():
@@ -319,9 +419,10 @@ def _ray_map(address: str | None, progress: Callable[[], None] | None) -> MapFn:
             while pending:
                 done, pending = ray.wait(pending, num_returns=1)
                 for f in done:
+                    res = ray.get(f)
                     if progress:
-                        progress()
-                    yield order[f], ray.get(f)
+                        progress(res)
+                    yield order[f], res
         finally:
             for f in pending:  # interrupted (or the consumer stopped): drop what is left
                 ray.cancel(f)
@@ -329,13 +430,27 @@ def _ray_map(address: str | None, progress: Callable[[], None] | None) -> MapFn:
     return map_fn
 
 
-def _run_task(comp: Compensator | None, fit_reason: str, task: BenchTask,
-              keep_trace: bool, nominal: bool = False) -> EpisodeRecord:
-    if comp is None:
-        return EpisodeRecord(task.env, task.compensator, task.trajectory, task.seed,
-                             status="failed", reason=fit_reason,
-                             plant="nominal" if nominal else "seed")
-    return run_episode(comp, task, keep_trace=keep_trace, nominal=nominal)
+def _run_cell_task(fits: list[tuple[Compensator | None, str]], tasks: list[BenchTask],
+                   keep_trace: list[bool], nominal: bool = False) -> list[EpisodeRecord]:
+    """The runs of one cell: :func:`run_cell` on the seeds whose fit succeeded, a failed record
+    (the fit's reason) for the others."""
+    records: list[EpisodeRecord | None] = [None] * len(tasks)
+    ok = [i for i, (comp, _) in enumerate(fits) if comp is not None]
+    for i, (comp, reason) in enumerate(fits):
+        if comp is None:
+            records[i] = EpisodeRecord(tasks[i].env, tasks[i].compensator, tasks[i].trajectory,
+                                       tasks[i].seed, status="failed", reason=reason,
+                                       plant="nominal" if nominal else "seed")
+    done = run_cell([fits[i][0] for i in ok], [tasks[i] for i in ok],  # type: ignore[misc]
+                    [keep_trace[i] for i in ok], nominal) if ok else []
+    for i, rec in zip(ok, done, strict=True):
+        records[i] = rec
+    return [r for r in records if r is not None]
+
+
+def _progress_weight(result: Any) -> int:
+    """Progress ticks of one mapped result: a cell's list of records counts each run."""
+    return len(result) if isinstance(result, list) else 1
 
 
 def _n_axes(env_id: str, trajectory: str | TrajectoryChoice) -> int:
@@ -536,15 +651,23 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
         1 if nominal else len(set(seeds)))
     bar = tqdm(total=len(tasks) + n_fits, desc="bench", unit="run", disable=not progress)
     try:
-        tick = bar.update
+        def tick(result: Any) -> None:
+            bar.update(_progress_weight(result))
+
         map_fn = _joblib_map(n_jobs, tick) if backend == "joblib" else _ray_map(address, tick)
         fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn, settings,
                                   None if nominal else seeds)
         first_seed = min(seeds)
-        args = [(*fitted[(t.compensator, get_spec(t.env).fit_on, None if nominal else t.seed)],
-                 t, t.seed == first_seed, nominal) for t in tasks]
-        for _, rec in map_fn(_run_task, args):
-            rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
-            yield rec
+        # one job per cell (env, compensator, trajectory): its seeds stepped together
+        cells: dict[tuple[str, str, str], list[BenchTask]] = {}
+        for t in tasks:
+            cells.setdefault((t.env, t.compensator, t.trajectory), []).append(t)
+        args = [([fitted[(t.compensator, get_spec(t.env).fit_on, None if nominal else t.seed)]
+                  for t in cell], cell, [t.seed == first_seed for t in cell], nominal)
+                for cell in cells.values()]
+        for _, recs in map_fn(_run_cell_task, args):
+            for rec in recs:
+                rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
+                yield rec
     finally:
         bar.close()
