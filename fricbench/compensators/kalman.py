@@ -26,15 +26,23 @@ Tuning (see ``docs/compensators.md``)
 
 from __future__ import annotations
 
-from typing import ClassVar
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 from scipy import linalg
 
 from fricbench._validation import check_nonneg, check_positive
 from fricbench.axis import Axis
-from fricbench.compensators.base import Compensator, EpisodeContext, feature_index
+from fricbench.compensators.base import (
+    Compensator,
+    CompensatorBatch,
+    EpisodeContext,
+    feature_index,
+)
+
+if TYPE_CHECKING:
+    from fricbench.compensators.residual_base import EpisodeObservers
 
 __all__ = ["KalmanDisturbanceObserver", "dob_model", "observer_poles", "ForceObserver",
            "initial_covariance"]
@@ -131,7 +139,12 @@ class ForceObserver(Compensator):
 
 
 class KalmanDisturbanceObserver(ForceObserver):
-    """Disturbance observer: filterpy ``KalmanFilter`` on ``[x, v, d]``, feeds back ``-d_hat``.
+    """Disturbance observer: a Kalman filter on ``[x, v, d]`` per axis, feeds back ``-d_hat``.
+
+    The filter is filterpy's ``KalmanFilter`` recursion with its covariance precomputed as a
+    gain schedule (:class:`~fricbench.compensators.residual_base.ObserverBank`, one row per
+    axis; the covariance does not depend on the measurements), so that one episode and a
+    batch of episodes (:meth:`batch`) run the same code.
 
     Parameters
     ----------
@@ -141,6 +154,11 @@ class KalmanDisturbanceObserver(ForceObserver):
         Fraction of the estimate fed back (1 = full cancellation).
     max_force : float or None
         Clip of the compensation force, N (``None``: the env's ``action_scale``).
+
+    Attributes
+    ----------
+    d_hat_ : ndarray, shape (D,)
+        Disturbance estimate of each axis after the last :meth:`act`, N.
 
     Notes
     -----
@@ -163,38 +181,51 @@ class KalmanDisturbanceObserver(ForceObserver):
         self.bandwidth = bandwidth
         self.gain = gain
         self.max_force = max_force
-        self._filters: list[KalmanFilter] = []
-        self._k = 0
+
+    @property
+    def d_hat_(self) -> np.ndarray:
+        """Disturbance estimate of each axis after the last act, N."""
+        return self._observers.bank.d_hat.copy()
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
-        axis = context.nominal_axis
-        mdl = dob_model(axis, self.bandwidth)
-        v0 = self._read_episode(context)
-        self._filters = []
-        for i in range(context.n_axes):
-            kf = KalmanFilter(dim_x=3, dim_z=1, dim_u=1)
-            kf.F, kf.B, kf.H = mdl["F"].copy(), mdl["B"].copy(), mdl["H"].copy()
-            kf.Q, kf.R = mdl["Q"].copy(), mdl["R"].copy()
-            kf.x = np.array([[self._xref[i, 0]], [v0[i]], [0.0]])
-            # start certain of x and v (at rest on the reference), unsure of d (breakaway)
-            kf.P = initial_covariance(axis, mdl)
-            self._filters.append(kf)
-        self._k = 0
-        self.d_hat_: list[float] = []
+        # imported here: the bank's module builds on this one's model
+        from fricbench.compensators.residual_base import EpisodeObservers
+
+        self._observers = EpisodeObservers(context, bandwidth=self.bandwidth, gain=self.gain,
+                                           max_force=self.max_force)
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
-        k = min(self._k, self._xref.shape[1] - 1)
-        out = np.empty(len(self._filters))
-        for i, kf in enumerate(self._filters):
-            e_col, f_col = self._cols[i]
-            if self._k > 0:
-                # motor force of the last sample: it acted over [t_k-1, t_k)
-                kf.predict(u=np.array([[observation[f_col] * self._f_scale]]))
-            # z = x_ref - e
-            kf.update(np.array([[self._xref[i, k] - observation[e_col] * self._e_scale]]))
-            d_hat = float(kf.x[2, 0])
-            # u = -d_hat: cancel the estimated disturbance (friction enters as d = -F_f)
-            u = float(np.clip(-self.gain * d_hat, -self._limit, self._limit))
-            out[i] = u / self._scale
-        self._k += 1
-        return out
+        return _observer_action(self._observers, observation[None])
+
+    @classmethod
+    def batch(cls, members: Sequence[Compensator]) -> CompensatorBatch:
+        """One observer bank over every axis of every member's episode; members with other
+        settings or nominal axes (another filter) act row by row (the default)."""
+        from fricbench.compensators.residual_base import EpisodeObservers
+
+        # checks the members: one class, each reset, one number of axes
+        default = CompensatorBatch(members)
+        try:
+            stacked = EpisodeObservers.stack(
+                [m._observers for m in members if isinstance(m, KalmanDisturbanceObserver)])
+        except ValueError:
+            return default
+        return _KalmanBatch(members, stacked)
+
+
+def _observer_action(observers: EpisodeObservers, observations: np.ndarray) -> np.ndarray:
+    """Step ``observers`` on observations (N, obs_dim); actions ``u / action_scale`` (N * D,)
+    with ``u = clip(-gain d_hat, +-max_force)``."""
+    observers.step(observations)
+    return observers.bank.force() / observers.action_scale
+
+
+class _KalmanBatch(CompensatorBatch):
+    """``kalman``'s episodes in one observer bank."""
+
+    def __init__(self, members: Sequence[Compensator], observers: EpisodeObservers) -> None:
+        super().__init__(members)
+        self._observers = observers
+
+    def _act_rows(self, observations: np.ndarray) -> np.ndarray:
+        return _observer_action(self._observers, observations)

@@ -13,6 +13,7 @@ observation (the appended contour error is not used).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
 from typing import ClassVar
@@ -21,7 +22,12 @@ import numpy as np
 
 from fricbench._validation import check_choice
 from fricbench.axis import Axis
-from fricbench.compensators.base import Compensator, CompensatorError, EpisodeContext
+from fricbench.compensators.base import (
+    Compensator,
+    CompensatorBatch,
+    CompensatorError,
+    EpisodeContext,
+)
 from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
 from fricbench.compensators.training_data import env_setup
 from fricbench.gym.task import n_features
@@ -111,6 +117,40 @@ class RLCompensator(Compensator):
         self._gain = pol.spec.action_scale / context.task.action_scale
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
-        d = self.context.n_axes
-        rows = observation[: d * self._nf].reshape(d, self._nf)
-        return self.policy_(rows)[:, 0] * self._gain
+        return _policy_action(self.policy_, self._nf, self.context.n_axes,
+                              np.array([self._gain]), observation[None])
+
+    @classmethod
+    def batch(cls, members: Sequence[Compensator]) -> CompensatorBatch:
+        """One policy call over every axis block of every member's observation; members
+        with different policies act row by row (the default)."""
+        # checks the members: one class, each reset, one number of axes
+        default = CompensatorBatch(members)
+        comps = [m for m in members if isinstance(m, RLCompensator)]
+        first = comps[0] if len(comps) == len(members) else None
+        if first is None or not all(c._nf == first._nf and first.policy_.same_as(c.policy_)
+                                    for c in comps):
+            return default
+        return _PolicyBatch(comps, first.policy_, first._nf,
+                            np.array([c._gain for c in comps]))
+
+
+def _policy_action(policy: NumpyPolicy, nf: int, d: int, gain: np.ndarray,
+                   observations: np.ndarray) -> np.ndarray:
+    """Actions (N * D,) of the single-axis ``policy`` on each axis block of observations
+    (N, obs_dim), times each episode's ``gain`` (N,)."""
+    n = observations.shape[0]
+    rows = observations[:, : d * nf].reshape(n * d, nf)
+    return policy(rows)[:, 0] * np.repeat(gain, d)
+
+
+class _PolicyBatch(CompensatorBatch):
+    """``rl-sac``/``rl-ppo`` episodes acted for by one policy call per sample."""
+
+    def __init__(self, members: Sequence[Compensator], policy: NumpyPolicy, nf: int,
+                 gain: np.ndarray) -> None:
+        super().__init__(members)
+        self._policy, self._nf, self._gain = policy, nf, gain
+
+    def _act_rows(self, observations: np.ndarray) -> np.ndarray:
+        return _policy_action(self._policy, self._nf, self.n_axes, self._gain, observations)

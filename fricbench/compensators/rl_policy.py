@@ -20,7 +20,9 @@ Inference runs the deterministic action of the trained agent::
     a = squash(W_n act(... act(W_1 (obs - mean) / std + b_1) ...) + b_n)
 
 with ``squash = tanh`` for SAC (its squashed Gaussian's mean) and ``clip(-1, 1)`` for PPO
-(stable-baselines3 clips the Gaussian mean to the action space), as plain numpy matmuls.
+(stable-baselines3 clips the Gaussian mean to the action space), as plain numpy products
+whose result for one observation does not depend on the others stepped with it (a batch of
+episodes acts exactly as each episode alone).
 """
 
 from __future__ import annotations
@@ -225,7 +227,7 @@ class PolicyMLP(nn.Module):
 
 
 class NumpyPolicy:
-    """Fast inference of a loaded policy (numpy matmuls, float64).
+    """Fast inference of a loaded policy (numpy, float64; each row as if it were alone).
 
     Parameters
     ----------
@@ -243,15 +245,36 @@ class NumpyPolicy:
         self._mean = None if spec.obs_mean is None else np.asarray(spec.obs_mean)
         self._std = None if spec.obs_std is None else np.asarray(spec.obs_std)
 
+    def same_as(self, other: NumpyPolicy) -> bool:
+        """Whether ``other`` is the same policy (spec and weights equal), so that one call
+        may act for both."""
+        return (isinstance(other, NumpyPolicy) and self.spec == other.spec
+                and all(np.array_equal(a, b) for a, b in zip(self._w, other._w, strict=True))
+                and all(np.array_equal(a, b) for a, b in zip(self._b, other._b, strict=True)))
+
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        """Actions in [-1, 1], shape (N, act_dim), for observations of shape (N, obs_dim)."""
+        """Actions in [-1, 1], shape (N, act_dim), for observations of shape (N, obs_dim).
+
+        Row ``i`` of the result is a function of row ``i`` of ``obs`` alone, bit for bit,
+        whatever ``N`` and the other rows.
+        """
         h = np.asarray(obs, dtype=np.float64)
         if self._mean is not None and self._std is not None:
             h = (h - self._mean) / self._std
         for w, b in zip(self._w[:-1], self._b[:-1], strict=True):
-            h = self._act(h @ w + b)
-        z = h @ self._w[-1] + self._b[-1]
+            h = self._act(_rows_times(h, w) + b)
+        z = _rows_times(h, self._w[-1]) + self._b[-1]
         return np.tanh(z) if self.spec.squash == "tanh" else np.clip(z, -1.0, 1.0)
+
+
+def _rows_times(h: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``h @ w`` with each row's result independent of the other rows.
+
+    BLAS ``h @ w`` blocks its sums by the number of rows (gemv for one, gemm for more), so one
+    observation's action would change with the batch it is stepped in; numpy's own einsum
+    loop (``optimize=False``: no BLAS) sums each row the same way whatever the rows.
+    """
+    return np.einsum("nk,ko->no", h, w, optimize=False)
 
 
 def save_policy(json_path: str | Path, spec: PolicySpec, module: PolicyMLP) -> None:

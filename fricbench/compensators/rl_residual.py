@@ -26,7 +26,7 @@ records the distribution under ``training.residual``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -35,11 +35,11 @@ import numpy as np
 from fricbench.axis import Axis
 from fricbench.compensators.base import (
     Compensator,
+    CompensatorBatch,
     CompensatorError,
     EpisodeContext,
-    feature_index,
 )
-from fricbench.compensators.residual_base import ObserverBank
+from fricbench.compensators.residual_base import EpisodeObservers
 from fricbench.compensators.rl import shipped_policy
 from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
 from fricbench.compensators.training_data import env_setup
@@ -136,35 +136,55 @@ class ResidualRLCompensator(Compensator):
         return self
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
-        cfg = context.task.observation
-        nf = n_features(cfg)
+        nf = n_features(context.task.observation)
         if nf + 1 != self.policy_.spec.obs_dim:
             raise CompensatorError(f"{self.policy_path}: obs_dim={self.policy_.spec.obs_dim} "
                                    f"but the episode's env has {nf} features per axis (+1)")
-        d = context.n_axes
         self._nf = nf
-        self._scale = context.task.action_scale
-        self._e_scale, self._f_scale = cfg.error_scale, cfg.force_scale
-        self._e_cols = np.array([feature_index("error", i, cfg) for i in range(d)])
-        self._f_cols = np.array([feature_index("motor_force", i, cfg) for i in range(d)])
-        ref = context.reference
-        self._xref = np.atleast_2d(ref.x)
         # the base exactly as kalman builds it: its filter, clipped at the env's action scale
-        self._bank = ObserverBank(context.nominal_axis, d, bandwidth=self.bandwidth_,
-                                  gain=self.gain_, max_force=self._scale)
-        rows = np.arange(d)
-        self._bank.reset(rows, self._xref[:, 0], np.atleast_2d(ref.v)[:, 0])
-        self._residual_scale = self.policy_.spec.action_scale
-        self._k = 0
+        self._observers = EpisodeObservers(context, bandwidth=self.bandwidth_, gain=self.gain_)
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
-        k = min(self._k, self._xref.shape[1] - 1)
-        # z = x_ref - e; the motor force of the last sample drives the prediction
-        z = self._xref[:, k] - observation[self._e_cols] * self._e_scale
-        self._bank.step(z, observation[self._f_cols] * self._f_scale)
-        self._k += 1
-        d = self.context.n_axes
-        rows = observation[: d * self._nf].reshape(d, self._nf)
-        aug = np.column_stack([rows, self._bank.d_hat / self._f_scale])
-        residual = self.policy_(aug)[:, 0] * self._residual_scale
-        return (self._bank.force() + residual) / self._scale
+        return _residual_action(self._observers, self.policy_, self._nf, observation[None])
+
+    @classmethod
+    def batch(cls, members: Sequence[Compensator]) -> CompensatorBatch:
+        """One observer bank and one policy call over every axis of every member's episode;
+        members with different policies, bases or nominal axes act row by row (the
+        default)."""
+        # checks the members: one class, each reset, one number of axes
+        default = CompensatorBatch(members)
+        comps = [m for m in members if isinstance(m, ResidualRLCompensator)]
+        first = comps[0] if len(comps) == len(members) else None
+        if first is None or not all(c._nf == first._nf and first.policy_.same_as(c.policy_)
+                                    for c in comps):
+            return default
+        try:
+            observers = EpisodeObservers.stack([c._observers for c in comps])
+        except ValueError:
+            return default
+        return _ResidualBatch(comps, observers, first.policy_, first._nf)
+
+
+def _residual_action(observers: EpisodeObservers, policy: NumpyPolicy, nf: int,
+                     observations: np.ndarray) -> np.ndarray:
+    """Step the base on observations (N, obs_dim); actions (N * D,) of base plus residual."""
+    observers.step(observations)
+    bank, n, d = observers.bank, observations.shape[0], observers.n_axes
+    rows = observations[:, : d * nf].reshape(n * d, nf)
+    aug = np.column_stack([rows, bank.d_hat / observers.force_scale])
+    # u = clip(-gain d_hat, +-F_max) + s_r pi(o, d_hat / F_s)
+    residual = policy(aug)[:, 0] * policy.spec.action_scale
+    return (bank.force() + residual) / observers.action_scale
+
+
+class _ResidualBatch(CompensatorBatch):
+    """``rl-residual`` episodes: one observer bank, one policy call per sample."""
+
+    def __init__(self, members: Sequence[Compensator], observers: EpisodeObservers,
+                 policy: NumpyPolicy, nf: int) -> None:
+        super().__init__(members)
+        self._observers, self._policy, self._nf = observers, policy, nf
+
+    def _act_rows(self, observations: np.ndarray) -> np.ndarray:
+        return _residual_action(self._observers, self._policy, self._nf, observations)

@@ -54,7 +54,7 @@ def test_estimate_matches_friction_while_sliding() -> None:
     k = int(np.argmax(v_ref))  # cruising at full feed
     for _ in range(k):
         obs, *_ = env.step(comp.act(obs))
-    d_hat = float(comp._filters[0].x[2, 0])
+    d_hat = float(comp.d_hat_[0])
     assert d_hat == pytest.approx(-u.axis.friction.fc, rel=0.1)
 
 
