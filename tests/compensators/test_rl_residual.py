@@ -62,8 +62,9 @@ def _run_pair(a_comp, b_comp, env_id: str = ENV, seed: int = 3,
 
 
 def test_bank_gives_kalmans_force() -> None:
-    """The vectorised observer reproduces kalman (filterpy) to the float32 action's rounding,
-    on a drawn plant with encoder and current noise."""
+    """The observer bank reproduces kalman to the float32 action's rounding, on a drawn plant
+    with encoder and current noise (kalman against filterpy: tests/compensators/
+    test_kalman.py)."""
     kal = make_compensator("kalman").fit(ENV)
     env = bench_env(ENV, kal, seed=5)
     obs, _ = env.reset(seed=5, options={"trajectory": "s_curve"})
