@@ -140,7 +140,7 @@ def _check_batch(env_id: str, members: list[Compensator], twins: list[Compensato
         assert np.array_equal(together, own), (k, together, own)
         observers = getattr(batch, "_observers", None)
         if observers is not None:  # the float64 estimates too, not only the float32 actions
-            own_d = [getattr(m, "_observers").bank.d_hat for m in members]
+            own_d = [m._observers.bank.d_hat for m in members]
             np.testing.assert_array_equal(observers.bank.d_hat, np.concatenate(own_d))
         truncated = False
         for i, env in enumerate(envs):
