@@ -185,6 +185,7 @@ class KalmanDisturbanceObserver(ForceObserver):
     @property
     def d_hat_(self) -> np.ndarray:
         """Disturbance estimate of each axis after the last act, N."""
+        _ = self.context  # raises before the first episode
         return self._observers.bank.d_hat.copy()
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:

@@ -1,13 +1,16 @@
-"""The classical base of ``rl-residual``: the ``kalman`` disturbance observer over many axes.
+"""The ``kalman`` disturbance observer over many axes: ``kalman``'s filter, ``rl-residual``'s base.
 
 :class:`ObserverBank` runs ``N`` copies of the Kalman disturbance observer of
 :mod:`fricbench.compensators.kalman` side by side, as numpy over the rows: the same model
 (:func:`~fricbench.compensators.kalman.dob_model`), the same initial state and covariance, the
-same order of predict and update, the same output ``u = clip(-gain d_hat, +-limit)``. One bank
-serves both sides of the residual policy: the training env
+same order of predict and update as filterpy's ``KalmanFilter``, the same output
+``u = clip(-gain d_hat, +-limit)``. A row's numbers never depend on the other rows. One bank
+serves ``kalman`` itself and both sides of the residual policy: the training env
 (:mod:`fricbench.compensators.residual_env`, thousands of rows stepped at once) and the
-benchmark compensator (:class:`~fricbench.compensators.rl_residual.ResidualRLCompensator`,
-one row per axis), so the base the policy learned on top of is the base it is scored on.
+benchmark compensators (:class:`~fricbench.compensators.kalman.KalmanDisturbanceObserver`,
+:class:`~fricbench.compensators.rl_residual.ResidualRLCompensator`: one row per axis of an
+episode, or of every episode of a batch, :class:`EpisodeObservers`), so the base the policy
+learned on top of is the base it is scored on.
 
 Why the filter can be vectorised cheaply: the covariance recursion of a linear Kalman filter
 does not depend on the measurements. Every row starts from the same ``P_0`` and follows the
