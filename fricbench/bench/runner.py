@@ -308,18 +308,19 @@ def run_cell(members: Sequence[Compensator], tasks: Sequence[BenchTask],
             batch = type(members[stepped[0]]).batch([members[i] for i in stepped])
             obs = np.stack([ep.obs for ep in eps])
             t_act = 0.0
+            errs = np.stack([ep.err for ep in eps])            # (N, D, K)
+            efforts = np.stack([ep.effort for ep in eps])
+            scale = np.array([ep.env.task.action_scale for ep in eps])[:, None]
             for k in range(lock.n_samples - 1):
                 t0 = time.perf_counter()
                 actions = batch.act(obs)
                 t_act += time.perf_counter() - t0
-                obs, err = lock.step(actions)
-                for j, ep in enumerate(eps):
-                    ep.err[:, k + 1] = err[j]
-                    ep.effort[:, k] = np.asarray(actions[j], dtype=float) \
-                        * ep.env.task.action_scale
+                obs, errs[:, :, k + 1] = lock.step(actions)
+                efforts[:, :, k] = actions.astype(float) * scale
             lock.close()
             batch.end_episode()
-            for i, ep in zip(stepped, eps, strict=True):
+            for j, (i, ep) in enumerate(zip(stepped, eps, strict=True)):
+                ep.err, ep.effort = errs[j], efforts[j]
                 # the batch's act time shared by its rows: the cost of one episode's step
                 ep.t_act = t_act / len(eps)
                 ep.score(records[i], keep[i])

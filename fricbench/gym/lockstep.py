@@ -90,10 +90,26 @@ class LockstepEnvs:
         # per env: its generator, whether its plant draws encoder noise, and the scale of its
         # current-measurement noise in observation units (as ServoAxisEnv computes it)
         f_s = self.task.observation.force_scale
-        self._noisy = [env.plant.needs_noise for env in self.envs]
-        self._i_scale = [env.plant.controller.kt * env.plant.effects.current_noise_std / f_s
-                         if env.plant.effects.current_noise_std > 0.0 else 0.0
-                         for env in self.envs]
+        rngs = [env.np_random for env in self.envs]
+        # each env's draws go straight into its rows of one buffer (Generator.standard_normal
+        # with out= gives the numbers of standard_normal(d)): encoder noise before the kernel,
+        # the drive's current noise with the observation, as ServoAxisEnv.step draws them
+        self._enc = np.zeros(rows)
+        self._enc_draws = [(rng, self._enc[i * d:(i + 1) * d])
+                           for i, (rng, env) in enumerate(zip(rngs, self.envs, strict=True))
+                           if env.plant.needs_noise]
+        self._cur = np.zeros(rows)
+        self._cur_draws = [(rng, self._cur[i * d:(i + 1) * d])
+                           for i, (rng, env) in enumerate(zip(rngs, self.envs, strict=True))
+                           if env.plant.effects.current_noise_std > 0.0]
+        noisy = [i * d + j for i, env in enumerate(self.envs)
+                 if env.plant.effects.current_noise_std > 0.0 for j in range(d)]
+        self._cur_rows: slice | np.ndarray = slice(None) if len(noisy) == rows \
+            else np.array(noisy, dtype=np.int64)
+        # F_meas = kt (i + n_i): the current noise in observation units, per row
+        self._cur_scale = np.array([env.plant.controller.kt * env.plant.effects.current_noise_std
+                                    / f_s for env in self.envs for _ in range(d)])[
+            self._cur_rows]
         self._k = 0
 
     @property
@@ -142,9 +158,10 @@ class LockstepEnvs:
             bad = int(np.flatnonzero(~np.isfinite(act))[0]) // d
             raise ValueError(f"actions[{bad}]={a[bad]!r}: contains NaN or inf")
         k = self._k
-        for i, env in enumerate(self.envs):
-            if self._noisy[i]:
-                self._noise[i * d:(i + 1) * d, 0] = env.np_random.standard_normal(d)
+        if self._enc_draws:
+            for rng, out in self._enc_draws:
+                rng.standard_normal(out=out)
+            self._noise[:, 0] = self._enc
         b = self._batch
         sl = slice(k, k + 1)
         K.run_kernel(b.P, b.S, self._xr[:, sl], self._vr[:, sl], self._ar[:, sl],
@@ -177,10 +194,11 @@ class LockstepEnvs:
         rows = self._obs_rows
         fill_observation(self._batch.S, self._batch.P, self._xr, self._vr, self._ar, self._rows,
                          self._kvec, self._offsets, self._prev_action, self._scales, rows)
-        for i, env in enumerate(self.envs):
-            if self._i_scale[i] > 0.0:
-                # F_meas = kt (i + n_i), drawn from the env's generator after its encoder noise
-                rows[i * d:(i + 1) * d, 6] += self._i_scale[i] * env.np_random.standard_normal(d)
+        if self._cur_draws:
+            for rng, out in self._cur_draws:
+                rng.standard_normal(out=out)
+            cur = self._cur_rows
+            rows[cur, 6] += self._cur_scale * self._cur[cur]
         flat = rows.reshape(n, d * self._nf)
         if d == 2:
             e_s = self.task.observation.error_scale
