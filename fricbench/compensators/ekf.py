@@ -57,17 +57,17 @@ Tuning (not fitted on any run; the category is ``online``)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 
 from fricbench._validation import check_nonneg, check_positive
 from fricbench.axis import Axis
-from fricbench.compensators.base import EpisodeContext
+from fricbench.compensators.base import Compensator, CompensatorBatch, EpisodeContext
 from fricbench.compensators.kalman import ForceObserver, dob_model
 
-__all__ = ["EKFModel", "ExtendedFrictionObserver", "ekf_model", "ekf_transition",
+__all__ = ["EKFBank", "EKFModel", "ExtendedFrictionObserver", "ekf_model", "ekf_transition",
            "stribeck_shape"]
 
 
@@ -126,34 +126,147 @@ def ekf_model(axis: Axis, eps: float = 1.0e-4, residual_time: float | None = Non
                     float(p.get("vs", 0.0)), float(p.get("fv", 0.0)), eps, max(fc, 0.0), decay)
 
 
-def stribeck_shape(v: float, model: EKFModel) -> tuple[float, float, float]:
-    """``s(v)``, ``s'(v)`` (s/m) and ``s''(v)`` (s^2/m^2) of the unit-level law.
+class _RowParams:
+    """The model constants of ``n`` filters, one row each, as arrays of shape (n,).
+
+    Every row may have its own :class:`EKFModel` (the members of a batch may be told different
+    nominal axes); the kernels below read only these arrays, elementwise.
+    """
+
+    _FIELDS = ("ts", "half_ts", "inv_m", "damping", "fv", "inv_eps", "on", "rho_m1",
+               "inv_vs2", "decay")
+    __slots__ = _FIELDS
+
+    ts: np.ndarray
+    half_ts: np.ndarray
+    inv_m: np.ndarray
+    damping: np.ndarray
+    fv: np.ndarray
+    inv_eps: np.ndarray
+    on: np.ndarray
+    rho_m1: np.ndarray
+    inv_vs2: np.ndarray
+    decay: np.ndarray
+
+    @classmethod
+    def of(cls, models: Sequence[EKFModel]) -> _RowParams:
+        """The rows of ``models``, in order."""
+        out = cls()
+        ts = np.array([m.ts for m in models])
+        out.ts, out.half_ts = ts, 0.5 * ts
+        out.inv_m = 1.0 / np.array([m.mass for m in models])
+        out.damping = np.array([m.damping for m in models])
+        out.fv = np.array([m.fv for m in models])
+        out.inv_eps = 1.0 / np.array([m.eps for m in models])
+        # the Stribeck term is on only with a Stribeck velocity and a peak (rho != 1)
+        out.on = np.array([m.vs > 0.0 and m.rho != 1.0 for m in models])
+        out.rho_m1 = np.array([m.rho - 1.0 for m in models])
+        out.inv_vs2 = np.array([1.0 / (m.vs * m.vs) if m.vs > 0.0 else 0.0 for m in models])
+        out.decay = np.array([m.decay for m in models])
+        return out
+
+    def rows(self, sl: slice) -> _RowParams:
+        """Rows ``sl`` (views)."""
+        out = _RowParams()
+        for f in self._FIELDS:
+            setattr(out, f, getattr(self, f)[sl])
+        return out
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[_RowParams]) -> _RowParams:
+        """The rows of ``parts``, one after the other."""
+        out = cls()
+        for f in cls._FIELDS:
+            setattr(out, f, np.concatenate([getattr(p, f) for p in parts]))
+        return out
+
+
+# Row independence. Each row's numbers must not depend on the other rows or on their number
+# (a batch's row i is bit for bit member i's own act). Every kernel below is elementwise on
+# arrays of shape (n,) (or (n, 4), (n, 4, 4) with the row first), sums written out term by
+# term in a fixed order: no matmul, whose BLAS blocking changes with n, and no reductions.
+# np.tanh and np.exp run SIMD code; they get fresh contiguous arrays, the path on which they
+# give the same bits for an element whatever the length (tested for lengths 1..33).
+
+def _shape(v: np.ndarray, prm: _RowParams, derivatives: bool = True
+           ) -> tuple[np.ndarray, ...]:
+    """``s(v)``, and with ``derivatives`` ``s'(v)``, ``s''(v)``, of the unit-level law, per row.
 
     ``s(v) = h(v) tanh(v / eps)`` with ``h(v) = 1 + (rho - 1) exp(-(v / v_s)^2)``.
     """
-    inv_eps = 1.0 / model.eps
-    t = math.tanh(v * inv_eps)
+    t = np.tanh(v * prm.inv_eps)
+    r2 = v * v * prm.inv_vs2
+    # exp(-40) < 5e-18: beyond r2 = 40, h = 1 to float precision
+    on = prm.on & (r2 < 40.0)
+    # h = 1 + (rho - 1) e,  e = exp(-v^2/vs^2)
+    ex = np.where(on, prm.rho_m1 * np.exp(-r2), 0.0)
+    h = 1.0 + ex
+    if not derivatives:
+        return (h * t,)
     # tanh' = (1 - tanh^2) / eps,  tanh'' = -2 tanh (1 - tanh^2) / eps^2
     sech2 = 1.0 - t * t
-    t1 = sech2 * inv_eps
-    t2 = -2.0 * t * sech2 * inv_eps * inv_eps
-    h, h1, h2 = 1.0, 0.0, 0.0
-    if model.vs > 0.0 and model.rho != 1.0:
-        inv_vs2 = 1.0 / (model.vs * model.vs)
-        r2 = v * v * inv_vs2
-        if r2 < 40.0:  # exp(-40) < 5e-18: beyond, h = 1 to float precision
-            # h = 1 + (rho - 1) e,  e = exp(-v^2/vs^2),  e' = -2 v e / vs^2
-            ex = (model.rho - 1.0) * math.exp(-r2)
-            h = 1.0 + ex
-            h1 = -2.0 * v * inv_vs2 * ex
-            h2 = ex * (4.0 * r2 - 2.0) * inv_vs2
+    t1 = sech2 * prm.inv_eps
+    t2 = -2.0 * t * sech2 * prm.inv_eps * prm.inv_eps
+    # e' = -2 v e / vs^2,  h'' = (rho - 1) e (4 v^2/vs^2 - 2) / vs^2
+    h1 = -2.0 * v * prm.inv_vs2 * ex
+    h2 = ex * (4.0 * r2 - 2.0) * prm.inv_vs2
     # s = h T,  s' = h' T + h T',  s'' = h'' T + 2 h' T' + h T''
     return h * t, h1 * t + h * t1, h2 * t + 2.0 * h1 * t1 + h * t2
+
+
+def _transition(x: np.ndarray, force: np.ndarray, prm: _RowParams,
+                jacobian: np.ndarray | None) -> np.ndarray:
+    """Next states (n, 4) of states ``x`` (n, 4) under ``force`` (n,), N; writes rows 0 and 1
+    of each Jacobian ``d x+ / d x`` into ``jacobian`` (n, 4, 4) when given."""
+    v, c, d = x[:, 1], x[:, 2], x[:, 3]
+    s, s1, s2 = _shape(v, prm)
+    ts, inv_m = prm.ts, prm.inv_m
+    # a = (F - c s(v) - (f_v + B) v + d) / M
+    a = (force - c * s - (prm.fv + prm.damping) * v + d) * inv_m
+    # g = da/dv, implicit only where it damps (the stiff part)
+    g = -(c * s1 + prm.fv + prm.damping) * inv_m
+    implicit = g < 0.0
+    den = np.where(implicit, 1.0 - ts * g, 1.0)
+    dv = ts * a / den
+    out = np.empty_like(x)
+    out[:, 0] = x[:, 0] + ts * v + prm.half_ts * dv
+    out[:, 1] = v + dv
+    # c+ = c (random walk), d+ = exp(-ts / tau_d) d (zero-mean residual)
+    out[:, 2] = c
+    out[:, 3] = prm.decay * d
+    if jacobian is not None:
+        # d(dv)/dq = ts (da/dq) / den + ts^2 a (dg/dq) / den^2   (dg/dq only where implicit)
+        k1 = ts / den
+        k2 = np.where(implicit, ts * ts * a / (den * den), 0.0)
+        ddv_dv = k1 * g + k2 * (-c * s2 * inv_m)
+        ddv_dc = k1 * (-s * inv_m) + k2 * (-s1 * inv_m)
+        ddv_dd = k1 * inv_m
+        jacobian[:, 0, 0] = 1.0
+        jacobian[:, 0, 1] = ts + prm.half_ts * ddv_dv
+        jacobian[:, 0, 2] = prm.half_ts * ddv_dc
+        jacobian[:, 0, 3] = prm.half_ts * ddv_dd
+        jacobian[:, 1, 0] = 0.0
+        jacobian[:, 1, 1] = 1.0 + ddv_dv
+        jacobian[:, 1, 2] = ddv_dc
+        jacobian[:, 1, 3] = ddv_dd
+    return out
+
+
+def stribeck_shape(v: float, model: EKFModel) -> tuple[float, float, float]:
+    """``s(v)``, ``s'(v)`` (s/m) and ``s''(v)`` (s^2/m^2) of the unit-level law.
+
+    ``s(v) = h(v) tanh(v / eps)`` with ``h(v) = 1 + (rho - 1) exp(-(v / v_s)^2)``; the
+    filters' own kernel, on one row.
+    """
+    s, s1, s2 = _shape(np.array([float(v)]), _RowParams.of([model]))
+    return float(s[0]), float(s1[0]), float(s2[0])
 
 
 def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
                    jacobian: np.ndarray | None = None) -> np.ndarray:
     """One step of the EKF's model: the next state and (in place) its Jacobian.
+
+    The filters' own kernel (:class:`EKFBank`), on one row.
 
     Parameters
     ----------
@@ -172,88 +285,198 @@ def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
     ndarray, shape (4, 1)
         The next state.
     """
-    x, v, c, d = (float(state[i, 0]) if state.ndim == 2 else float(state[i])
-                  for i in range(4))
-    m, ts = model.mass, model.ts
-    s, s1, s2 = stribeck_shape(v, model)
-    inv_m = 1.0 / m
-    # a = (F - c s(v) - (f_v + B) v + d) / M
-    a = (force - c * s - (model.fv + model.damping) * v + d) * inv_m
-    # g = da/dv, implicit only where it damps (the stiff part)
-    g = -(c * s1 + model.fv + model.damping) * inv_m
-    implicit = g < 0.0
-    den = 1.0 - ts * g if implicit else 1.0
-    dv = ts * a / den
-    # c+ = c (random walk), d+ = exp(-ts / tau_d) d (zero-mean residual)
-    out = np.array([[x + ts * v + 0.5 * ts * dv], [v + dv], [c], [model.decay * d]])
-    if jacobian is not None:
-        # d(dv)/dq = ts (da/dq) / den + ts^2 a (dg/dq) / den^2   (dg/dq only where implicit)
-        k1 = ts / den
-        k2 = ts * ts * a / (den * den) if implicit else 0.0
-        ddv_dv = k1 * g + k2 * (-c * s2 * inv_m)
-        ddv_dc = k1 * (-s * inv_m) + k2 * (-s1 * inv_m)
-        ddv_dd = k1 * inv_m
-        half = 0.5 * ts
-        jacobian[0, 0] = 1.0
-        jacobian[0, 1] = ts + half * ddv_dv
-        jacobian[0, 2] = half * ddv_dc
-        jacobian[0, 3] = half * ddv_dd
-        jacobian[1, 0] = 0.0
-        jacobian[1, 1] = 1.0 + ddv_dv
-        jacobian[1, 2] = ddv_dc
-        jacobian[1, 3] = ddv_dd
-    return out
+    x = np.asarray(state, dtype=np.float64).reshape(1, 4)
+    jac = None if jacobian is None else jacobian[None, :, :]
+    return _transition(x, np.array([float(force)]), _RowParams.of([model]), jac).reshape(4, 1)
 
 
-class _FrictionEKF(ExtendedKalmanFilter):  # type: ignore[misc]
-    """filterpy's EKF with the nonlinear prediction of :func:`ekf_transition`."""
+class EKFBank:
+    """``n`` extended Kalman filters of the friction model, stepped in one set of numpy calls.
 
-    x: np.ndarray
-    F: np.ndarray
-    P: np.ndarray
-    R: np.ndarray
+    Each row is the filter of the module docstring: the linearly implicit transition
+    (:func:`ekf_transition`) with its analytic Jacobian, ``P = F P F' + Q``, and the Joseph-form
+    update with the encoder position (``H = [1 0 0 0]``), the level held below ``3 eps``.
+    filterpy's ``ExtendedKalmanFilter`` does the same for one filter at a time, at a Python
+    and small-matrix overhead of about 100 us a step; here one call steps every row, and a
+    row's numbers do not depend on the other rows (elementwise arithmetic only, no matmul:
+    the compensator's own act and a batch of episodes are then the same code and the same
+    bits).
 
-    def __init__(self, model: EKFModel) -> None:
-        super().__init__(dim_x=4, dim_z=1, dim_u=1)
-        self.model = model
-        self.F = np.diag([1.0, 1.0, 1.0, model.decay])
+    Parameters
+    ----------
+    models : sequence of EKFModel
+        The model of each row.
+    q : ndarray, shape (n, 4, 4)
+        Process noise covariance per row.
+    r : ndarray, shape (n,)
+        Position measurement variance per row, m^2.
+    x0 : ndarray, shape (n, 4)
+        Initial states ``[x, v, c, d]``.
+    p0 : ndarray, shape (n, 4, 4)
+        Initial covariances.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, 4)
+        States (posterior after :meth:`update_position`).
+    P : ndarray, shape (n, 4, 4)
+        Covariances.
+    """
+
+    _ARRAYS = ("x", "P", "Q", "r", "v_adapt", "_F")
+
+    def __init__(self, models: Sequence[EKFModel], q: np.ndarray, r: np.ndarray,
+                 x0: np.ndarray, p0: np.ndarray) -> None:
+        n = len(models)
+        self.prm = _RowParams.of(models)
+        self.x = np.array(x0, dtype=np.float64).reshape(n, 4)
+        self.P = np.array(p0, dtype=np.float64).reshape(n, 4, 4)
+        self.Q = np.array(q, dtype=np.float64).reshape(n, 4, 4)
+        self.r = np.array(r, dtype=np.float64).reshape(n)
         # below this estimated speed the level is held: 3 eps, where tanh(v / eps) > 0.995
-        self.v_adapt = 3.0 * model.eps
-        self._gain = np.zeros((4, 1))
-        self._buf = np.zeros((4, 4))
+        self.v_adapt = np.array([3.0 * m.eps for m in models])
+        # the Jacobians; rows 2 and 3 are constant, diag(1, decay)
+        self._F = np.zeros((n, 4, 4))
+        self._F[:, 2, 2] = 1.0
+        self._F[:, 3, 3] = self.prm.decay
 
-    def predict_x(self, u: float = 0.0) -> None:
-        # filterpy then forms P = F P F' + Q with the Jacobian written here at the prior state
-        self.x = ekf_transition(self.x, float(u), self.model, self.F)
+    def __len__(self) -> int:
+        return self.x.shape[0]
+
+    def rows(self, sl: slice) -> EKFBank:
+        """The filters of rows ``sl`` as a bank whose arrays are views of this one's: stepping
+        either steps both."""
+        out = object.__new__(EKFBank)
+        out.prm = self.prm.rows(sl)
+        for name in self._ARRAYS:
+            setattr(out, name, getattr(self, name)[sl])
+        return out
+
+    @classmethod
+    def concatenate(cls, banks: Sequence[EKFBank]) -> EKFBank:
+        """One bank of the rows of ``banks`` (copies), in order."""
+        out = object.__new__(cls)
+        out.prm = _RowParams.concatenate([b.prm for b in banks])
+        for name in cls._ARRAYS:
+            setattr(out, name, np.concatenate([getattr(b, name) for b in banks]))
+        return out
+
+    def predict(self, force: np.ndarray) -> None:
+        """Propagate every row over one sample with its motor force ``force`` (n,), N."""
+        f, p = self._F, self.P
+        # the Jacobian at the prior state, then x+ = f(x, F)
+        self.x[...] = _transition(self.x, force, self.prm, f)
+        # P = F P F' + Q, the 4x4 products written out (row independent, see above)
+        fp = f[:, :, 0, None] * p[:, None, 0, :]
+        for j in range(1, 4):
+            fp += f[:, :, j, None] * p[:, None, j, :]
+        fpf = fp[:, :, 0, None] * f[:, None, :, 0]
+        for j in range(1, 4):
+            fpf += fp[:, :, j, None] * f[:, None, :, j]
+        np.add(fpf, self.Q, out=p)
+
+    def update_position(self, z: np.ndarray) -> None:
+        """Update every row with its encoder position ``z`` (n,), m (Joseph form)."""
+        p, x, r = self.P, self.x, self.r
+        # S = H P H' + R,  K = P H' / S
+        k = p[:, :, 0] / (p[:, 0, 0] + r)[:, None]
+        # sticking: the level is not observable (any level balances the force), and the
+        # stiff law's linearisation would move it at random; hold it (K_c = 0). The Joseph
+        # form below keeps P right for this non-optimal gain.
+        k[:, 2] = np.where(np.abs(x[:, 1]) < self.v_adapt, 0.0, k[:, 2])
+        # y = z - H x
+        y = z - x[:, 0]
+        x += k * y[:, None]
+        # P = (I - K H) P (I - K H)' + K R K'   (Joseph form, as filterpy): P - K P[0, :],
+        # then minus (the new) P[:, 0] K', plus R K K'
+        p -= k[:, :, None] * p[:, None, 0, :]
+        p -= p[:, :, 0, None] * k[:, None, :]
+        p += k[:, :, None] * k[:, None, :] * r[:, None, None]
+
+    def friction_force(self) -> np.ndarray:
+        """``F_f(v_hat, c_hat) - d_hat`` per row, N: the force the compensator cancels."""
+        v, c, d = self.x[:, 1], self.x[:, 2], self.x[:, 3]
+        s = _shape(v, self.prm, derivatives=False)[0]
+        return c * s + self.prm.fv * v - d
+
+
+class _EpisodeRows:
+    """The filters of one or more episodes with what each row reads: which observation row,
+    which columns and scales, its reference positions, its gain and clip.
+
+    One compensator's episode is D rows (one per axis, observation row 0); a batch of N
+    episodes is their concatenation, N*D rows. :meth:`step` is the act of every row.
+    """
+
+    def __init__(self, bank: EKFBank, xref: np.ndarray, obs_row: np.ndarray,
+                 e_col: np.ndarray, f_col: np.ndarray, e_scale: np.ndarray,
+                 f_scale: np.ndarray, gain: np.ndarray, limit: np.ndarray,
+                 scale: np.ndarray) -> None:
+        self.bank, self.xref, self.obs_row = bank, xref, obs_row
+        self.e_col, self.f_col, self.e_scale, self.f_scale = e_col, f_col, e_scale, f_scale
+        self.gain, self.limit, self.scale = gain, limit, scale
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[_EpisodeRows]) -> _EpisodeRows:
+        """The rows of ``parts``, part ``i`` reading observation row ``i``; references of
+        different lengths are padded with their last position (a row past its end reads its
+        last sample, as a single episode does)."""
+        k_max = max(p.xref.shape[1] for p in parts)
+        xref = np.concatenate([np.pad(p.xref, ((0, 0), (0, k_max - p.xref.shape[1])),
+                                      mode="edge") for p in parts])
+        obs_row = np.concatenate([np.full(len(p.obs_row), i) for i, p in enumerate(parts)])
+
+        def cat(name: str) -> np.ndarray:
+            return np.concatenate([getattr(p, name) for p in parts])
+
+        return cls(EKFBank.concatenate([p.bank for p in parts]), xref, obs_row,
+                   cat("e_col"), cat("f_col"), cat("e_scale"), cat("f_scale"), cat("gain"),
+                   cat("limit"), cat("scale"))
+
+    def step(self, observations: np.ndarray, k: int) -> np.ndarray:
+        """Actions (before the [-1, 1] clip) of step ``k`` for ``observations`` (N, obs_dim)."""
+        bank = self.bank
+        if k > 0:
+            # motor force of the last sample: it acted over [t_k-1, t_k)
+            bank.predict(observations[self.obs_row, self.f_col] * self.f_scale)
+        # z = x_ref - e
+        z = (self.xref[:, min(k, self.xref.shape[1] - 1)]
+             - observations[self.obs_row, self.e_col] * self.e_scale)
+        bank.update_position(z)
+        # u = F_f(v_hat, c_hat) - d_hat: cancel the estimated friction and disturbance
+        u = self.gain * bank.friction_force()
+        return np.minimum(np.maximum(u, -self.limit), self.limit) / self.scale
+
+
+class _FilterView:
+    """Row ``i`` of a bank in filterpy's conventions (``x`` (4, 1), ``P`` (4, 4), ``R``
+    (1, 1), ``update_position(z)``), to inspect one axis's filter; writes go to the bank."""
+
+    def __init__(self, bank: EKFBank, i: int) -> None:
+        self._bank = bank.rows(slice(i, i + 1))
+
+    @property
+    def x(self) -> np.ndarray:
+        return self._bank.x.reshape(4, 1)
+
+    @x.setter
+    def x(self, value: np.ndarray) -> None:
+        self._bank.x[0] = np.asarray(value, dtype=np.float64).reshape(4)
+
+    @property
+    def P(self) -> np.ndarray:  # noqa: N802 - filterpy's name
+        return self._bank.P[0]
+
+    @P.setter
+    def P(self, value: np.ndarray) -> None:  # noqa: N802
+        self._bank.P[0] = value
+
+    @property
+    def R(self) -> np.ndarray:  # noqa: N802
+        return self._bank.r.reshape(1, 1)
 
     def update_position(self, z: float) -> None:
-        """Update with the encoder position ``z`` (m): filterpy's ``update`` for ``H = [1 0 0 0]``.
-
-        The same Joseph-form update as ``ExtendedKalmanFilter.update`` written for the scalar
-        measurement, without its per-call matrix inverse, deep copies and history copies (it
-        ran at a third of the step's time); ``x`` and ``P`` stay filterpy's attributes.
-        """
-        p, k, buf = self.P, self._gain, self._buf
-        r = float(self.R[0, 0])
-        # S = H P H' + R,  K = P H' / S
-        s = p[0, 0] + r
-        np.divide(p[:, :1], s, out=k)
-        if abs(self.x[1, 0]) < self.v_adapt:
-            # sticking: the level is not observable (any level balances the force), and the
-            # stiff law's linearisation would move it at random; hold it (K_c = 0). The Joseph
-            # form below keeps P right for this non-optimal gain.
-            k[2, 0] = 0.0
-        # y = z - H x
-        y = z - self.x[0, 0]
-        self.x += k * y
-        # P = (I - K H) P (I - K H)' + K R K'   (Joseph form, as filterpy)
-        np.multiply(k, p[:1, :], out=buf)
-        p -= buf
-        np.multiply(p[:, :1], k.T, out=buf)
-        p -= buf
-        np.multiply(k, k.T, out=buf)
-        buf *= r
-        p += buf
+        self._bank.update_position(np.array([float(z)]))
 
 
 class ExtendedFrictionObserver(ForceObserver):
@@ -314,7 +537,6 @@ class ExtendedFrictionObserver(ForceObserver):
         self.eps = eps
         self.gain = gain
         self.max_force = max_force
-        self._filters: list[_FrictionEKF] = []
         self._k = 0
 
     def _covariances(self, axis: Axis, model: EKFModel) -> tuple[np.ndarray, np.ndarray]:
@@ -338,36 +560,73 @@ class ExtendedFrictionObserver(ForceObserver):
         q, r = self._covariances(axis, model)
         v0 = self._read_episode(context)
         level_sd = self.level_std * max(model.fc, 1.0)
-        self._model = model
-        self._filters = []
-        for i in range(context.n_axes):
-            kf = _FrictionEKF(model)
-            kf.Q, kf.R = q.copy(), r.copy()
-            kf.x = np.array([[self._xref[i, 0]], [v0[i]], [model.fc], [0.0]])
-            # start sure of x and v (at rest on the reference), unsure of the level by the
-            # spread between machines, and of the residual by as much of the static level
-            kf.P = np.diag([r[0, 0], 1e-8, level_sd**2, (self.level_std * model.rho
-                                                         * max(model.fc, 1.0))**2])
-            self._filters.append(kf)
+        d = context.n_axes
+        x0 = np.column_stack([self._xref[:, 0], v0, np.full(d, model.fc), np.zeros(d)])
+        # start sure of x and v (at rest on the reference), unsure of the level by the
+        # spread between machines, and of the residual by as much of the static level
+        p0 = np.diag([r[0, 0], 1e-8, level_sd**2,
+                      (self.level_std * model.rho * max(model.fc, 1.0))**2])
+        bank = EKFBank([model] * d, np.broadcast_to(q, (d, 4, 4)), np.full(d, r[0, 0]), x0,
+                       np.broadcast_to(p0, (d, 4, 4)))
+        cols = np.array(self._cols, dtype=np.intp).reshape(d, 2)
+
+        def per_row(value: float) -> np.ndarray:
+            return np.full(d, float(value))
+
+        self._rows = _EpisodeRows(bank, np.array(self._xref, dtype=np.float64),
+                                  np.zeros(d, dtype=np.intp), cols[:, 0], cols[:, 1],
+                                  per_row(self._e_scale), per_row(self._f_scale),
+                                  per_row(self.gain), per_row(self._limit),
+                                  per_row(self._scale))
         self._k = 0
-        self.level_ = [model.fc] * context.n_axes
+
+    @property
+    def level_(self) -> list[float]:
+        """Estimated Coulomb level per axis after the last step, N."""
+        rows = getattr(self, "_rows", None)
+        if rows is None:
+            raise AttributeError("level_: no episode started (call reset())")
+        return [float(c) for c in rows.bank.x[:, 2]]
+
+    @property
+    def _filters(self) -> list[_FilterView]:
+        """Each axis's filter, viewed in filterpy's conventions (inspection, tests)."""
+        return [_FilterView(self._rows.bank, i) for i in range(len(self._rows.bank))]
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
-        k = min(self._k, self._xref.shape[1] - 1)
-        out = np.empty(len(self._filters))
-        model = self._model
-        for i, kf in enumerate(self._filters):
-            e_col, f_col = self._cols[i]
-            if self._k > 0:
-                # motor force of the last sample: it acted over [t_k-1, t_k)
-                kf.predict(u=observation[f_col] * self._f_scale)
-            # z = x_ref - e
-            kf.update_position(self._xref[i, k] - observation[e_col] * self._e_scale)
-            v, c, d = float(kf.x[1, 0]), float(kf.x[2, 0]), float(kf.x[3, 0])
-            s = stribeck_shape(v, model)[0]
-            self.level_[i] = c
-            # u = F_f(v_hat, c_hat) - d_hat: cancel the estimated friction and disturbance
-            u = self.gain * (c * s + model.fv * v - d)
-            out[i] = min(max(u, -self._limit), self._limit) / self._scale
+        # the episode's D rows, through the same step as a batch of episodes
+        out = self._rows.step(observation[None, :], self._k)
         self._k += 1
         return out
+
+    @classmethod
+    def batch(cls, members: Sequence[Compensator]) -> CompensatorBatch:
+        """The members' filters in one bank, stepped by one call per sample (see
+        :meth:`Compensator.batch`): row ``i`` gives member ``i``'s own actions, bit for bit."""
+        return _EKFBatch(members)
+
+
+class _EKFBatch(CompensatorBatch):
+    """Episodes of ``ekf`` stepped together: the members' filters concatenated in one bank."""
+
+    def __init__(self, members: Sequence[Compensator]) -> None:
+        super().__init__(members)
+        ekfs = [m for m in self.members if isinstance(m, ExtendedFrictionObserver)]
+        if len(ekfs) != len(self.members):
+            raise TypeError(f"members: instances of {type(self.members[0]).__name__}; "
+                            "expected ExtendedFrictionObserver")
+        stepped = [i for i, m in enumerate(ekfs) if m._k != 0]
+        if stepped:
+            raise ValueError(f"members: member {stepped[0]} has already acted "
+                             f"{ekfs[stepped[0]]._k} times; expected members just reset")
+        self._rows = _EpisodeRows.concatenate([m._rows for m in ekfs])
+        # the members' filters become views of the bank: their level_ follows the batch
+        d = self.n_axes
+        for i, m in enumerate(ekfs):
+            m._rows.bank = self._rows.bank.rows(slice(i * d, (i + 1) * d))
+        self._k = 0
+
+    def _act_rows(self, observations: np.ndarray) -> np.ndarray:
+        out = self._rows.step(observations, self._k)
+        self._k += 1
+        return out.reshape(len(self.members), self.n_axes)
