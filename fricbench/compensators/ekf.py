@@ -60,6 +60,7 @@ import math
 from collections.abc import Sequence
 from typing import ClassVar
 
+import numba
 import numpy as np
 
 from fricbench._validation import check_nonneg, check_positive
@@ -126,147 +127,220 @@ def ekf_model(axis: Axis, eps: float = 1.0e-4, residual_time: float | None = Non
                     float(p.get("vs", 0.0)), float(p.get("fv", 0.0)), eps, max(fc, 0.0), decay)
 
 
-class _RowParams:
-    """The model constants of ``n`` filters, one row each, as arrays of shape (n,).
+# -- the filters' kernels ------------------------------------------------------------------------
+# Each row (one filter) is computed by the same scalar code, whatever the other rows and their
+# number: a batch's row i is then bit for bit member i's own act. Compiled with numba (strict
+# IEEE, no fast-math) because the step is ~150 scalar operations on 4-vectors and 4x4
+# matrices: as numpy calls on arrays of a few rows it cost more per call than filterpy's
+# Python (measured in tests/compensators/test_ekf_batch.py), compiled it costs microseconds.
+# The 4x4 products are written out, summed in a fixed order (no BLAS, whose blocking would
+# depend on the batch size).
 
-    Every row may have its own :class:`EKFModel` (the members of a batch may be told different
-    nominal axes); the kernels below read only these arrays, elementwise.
-    """
+# columns of a bank's parameter rows (EKFBank.prm)
+(_TS, _INV_M, _DAMPING, _FV, _INV_EPS, _ON, _RHO_M1, _INV_VS2, _DECAY, _R,
+ _V_ADAPT) = range(11)
+_N_PRM = 11
+# columns of an episode's per-row settings (_EpisodeRows.ep) and indices (_EpisodeRows.cols)
+_E_SCALE, _F_SCALE, _GAIN, _LIMIT, _SCALE = range(5)
+_OBS_ROW, _E_COL, _F_COL = range(3)
 
-    _FIELDS = ("ts", "half_ts", "inv_m", "damping", "fv", "inv_eps", "on", "rho_m1",
-               "inv_vs2", "decay")
-    __slots__ = _FIELDS
 
-    ts: np.ndarray
-    half_ts: np.ndarray
-    inv_m: np.ndarray
-    damping: np.ndarray
-    fv: np.ndarray
-    inv_eps: np.ndarray
-    on: np.ndarray
-    rho_m1: np.ndarray
-    inv_vs2: np.ndarray
-    decay: np.ndarray
-
-    @classmethod
-    def of(cls, models: Sequence[EKFModel]) -> _RowParams:
-        """The rows of ``models``, in order."""
-        out = cls()
-        ts = np.array([m.ts for m in models])
-        out.ts, out.half_ts = ts, 0.5 * ts
-        out.inv_m = 1.0 / np.array([m.mass for m in models])
-        out.damping = np.array([m.damping for m in models])
-        out.fv = np.array([m.fv for m in models])
-        out.inv_eps = 1.0 / np.array([m.eps for m in models])
+def _param_rows(models: Sequence[EKFModel], r: np.ndarray) -> np.ndarray:
+    """The parameter rows (n, 11) of filters of ``models`` with position variances ``r``."""
+    prm = np.zeros((len(models), _N_PRM))
+    for i, m in enumerate(models):
+        prm[i, _TS], prm[i, _INV_M], prm[i, _DAMPING] = m.ts, 1.0 / m.mass, m.damping
+        prm[i, _FV], prm[i, _INV_EPS] = m.fv, 1.0 / m.eps
         # the Stribeck term is on only with a Stribeck velocity and a peak (rho != 1)
-        out.on = np.array([m.vs > 0.0 and m.rho != 1.0 for m in models])
-        out.rho_m1 = np.array([m.rho - 1.0 for m in models])
-        out.inv_vs2 = np.array([1.0 / (m.vs * m.vs) if m.vs > 0.0 else 0.0 for m in models])
-        out.decay = np.array([m.decay for m in models])
-        return out
-
-    def rows(self, sl: slice) -> _RowParams:
-        """Rows ``sl`` (views)."""
-        out = _RowParams()
-        for f in self._FIELDS:
-            setattr(out, f, getattr(self, f)[sl])
-        return out
-
-    @classmethod
-    def concatenate(cls, parts: Sequence[_RowParams]) -> _RowParams:
-        """The rows of ``parts``, one after the other."""
-        out = cls()
-        for f in cls._FIELDS:
-            setattr(out, f, np.concatenate([getattr(p, f) for p in parts]))
-        return out
+        on = m.vs > 0.0 and m.rho != 1.0
+        prm[i, _ON], prm[i, _RHO_M1] = float(on), m.rho - 1.0
+        prm[i, _INV_VS2] = 1.0 / (m.vs * m.vs) if on else 0.0
+        prm[i, _DECAY], prm[i, _R] = m.decay, r[i]
+        # below this estimated speed the level is held: 3 eps, where tanh(v / eps) > 0.995
+        prm[i, _V_ADAPT] = 3.0 * m.eps
+    return prm
 
 
-# Row independence. Each row's numbers must not depend on the other rows or on their number
-# (a batch's row i is bit for bit member i's own act). Every kernel below is elementwise on
-# arrays of shape (n,) (or (n, 4), (n, 4, 4) with the row first), sums written out term by
-# term in a fixed order: no matmul, whose BLAS blocking changes with n, and no reductions.
-# np.tanh and np.exp run SIMD code; they get fresh contiguous arrays, the path on which they
-# give the same bits for an element whatever the length (tested for lengths 1..33).
-
-def _shape(v: np.ndarray, prm: _RowParams, derivatives: bool = True
-           ) -> tuple[np.ndarray, ...]:
-    """``s(v)``, and with ``derivatives`` ``s'(v)``, ``s''(v)``, of the unit-level law, per row.
-
-    ``s(v) = h(v) tanh(v / eps)`` with ``h(v) = 1 + (rho - 1) exp(-(v / v_s)^2)``.
-    """
-    t = np.tanh(v * prm.inv_eps)
-    r2 = v * v * prm.inv_vs2
-    # exp(-40) < 5e-18: beyond r2 = 40, h = 1 to float precision
-    on = prm.on & (r2 < 40.0)
-    # h = 1 + (rho - 1) e,  e = exp(-v^2/vs^2)
-    ex = np.where(on, prm.rho_m1 * np.exp(-r2), 0.0)
-    h = 1.0 + ex
-    if not derivatives:
-        return (h * t,)
+def _shape_row(v: float, p: np.ndarray) -> tuple[float, float, float]:
+    """``s(v)``, ``s'(v)``, ``s''(v)`` of the unit-level law, parameters ``p`` (one row)."""
+    inv_eps = p[_INV_EPS]
+    t = math.tanh(v * inv_eps)
     # tanh' = (1 - tanh^2) / eps,  tanh'' = -2 tanh (1 - tanh^2) / eps^2
     sech2 = 1.0 - t * t
-    t1 = sech2 * prm.inv_eps
-    t2 = -2.0 * t * sech2 * prm.inv_eps * prm.inv_eps
-    # e' = -2 v e / vs^2,  h'' = (rho - 1) e (4 v^2/vs^2 - 2) / vs^2
-    h1 = -2.0 * v * prm.inv_vs2 * ex
-    h2 = ex * (4.0 * r2 - 2.0) * prm.inv_vs2
+    t1 = sech2 * inv_eps
+    t2 = -2.0 * t * sech2 * inv_eps * inv_eps
+    h, h1, h2 = 1.0, 0.0, 0.0
+    if p[_ON] != 0.0:
+        inv_vs2 = p[_INV_VS2]
+        r2 = v * v * inv_vs2
+        if r2 < 40.0:  # exp(-40) < 5e-18: beyond, h = 1 to float precision
+            # h = 1 + (rho - 1) e,  e = exp(-v^2/vs^2),  e' = -2 v e / vs^2
+            ex = p[_RHO_M1] * math.exp(-r2)
+            h = 1.0 + ex
+            h1 = -2.0 * v * inv_vs2 * ex
+            h2 = ex * (4.0 * r2 - 2.0) * inv_vs2
     # s = h T,  s' = h' T + h T',  s'' = h'' T + 2 h' T' + h T''
     return h * t, h1 * t + h * t1, h2 * t + 2.0 * h1 * t1 + h * t2
 
 
-def _transition(x: np.ndarray, force: np.ndarray, prm: _RowParams,
-                jacobian: np.ndarray | None) -> np.ndarray:
-    """Next states (n, 4) of states ``x`` (n, 4) under ``force`` (n,), N; writes rows 0 and 1
-    of each Jacobian ``d x+ / d x`` into ``jacobian`` (n, 4, 4) when given."""
-    v, c, d = x[:, 1], x[:, 2], x[:, 3]
-    s, s1, s2 = _shape(v, prm)
-    ts, inv_m = prm.ts, prm.inv_m
+def _transition_row(x: np.ndarray, force: float, p: np.ndarray, jac: np.ndarray) -> None:
+    """``x`` (4,) <- its next state under ``force`` (N); rows 0 and 1 of ``jac`` (4, 4) <- the
+    Jacobian ``d x+ / d x`` at the prior state (rows 2 and 3, ``diag(1, decay)``, are
+    constant and left as they are)."""
+    v, c, d = x[1], x[2], x[3]
+    ts, inv_m = p[_TS], p[_INV_M]
+    s, s1, s2 = _shape_row(v, p)
     # a = (F - c s(v) - (f_v + B) v + d) / M
-    a = (force - c * s - (prm.fv + prm.damping) * v + d) * inv_m
+    a = (force - c * s - (p[_FV] + p[_DAMPING]) * v + d) * inv_m
     # g = da/dv, implicit only where it damps (the stiff part)
-    g = -(c * s1 + prm.fv + prm.damping) * inv_m
+    g = -(c * s1 + p[_FV] + p[_DAMPING]) * inv_m
     implicit = g < 0.0
-    den = np.where(implicit, 1.0 - ts * g, 1.0)
+    den = 1.0 - ts * g if implicit else 1.0
     dv = ts * a / den
-    out = np.empty_like(x)
-    out[:, 0] = x[:, 0] + ts * v + prm.half_ts * dv
-    out[:, 1] = v + dv
-    # c+ = c (random walk), d+ = exp(-ts / tau_d) d (zero-mean residual)
-    out[:, 2] = c
-    out[:, 3] = prm.decay * d
-    if jacobian is not None:
-        # d(dv)/dq = ts (da/dq) / den + ts^2 a (dg/dq) / den^2   (dg/dq only where implicit)
-        k1 = ts / den
-        k2 = np.where(implicit, ts * ts * a / (den * den), 0.0)
-        ddv_dv = k1 * g + k2 * (-c * s2 * inv_m)
-        ddv_dc = k1 * (-s * inv_m) + k2 * (-s1 * inv_m)
-        ddv_dd = k1 * inv_m
-        jacobian[:, 0, 0] = 1.0
-        jacobian[:, 0, 1] = ts + prm.half_ts * ddv_dv
-        jacobian[:, 0, 2] = prm.half_ts * ddv_dc
-        jacobian[:, 0, 3] = prm.half_ts * ddv_dd
-        jacobian[:, 1, 0] = 0.0
-        jacobian[:, 1, 1] = 1.0 + ddv_dv
-        jacobian[:, 1, 2] = ddv_dc
-        jacobian[:, 1, 3] = ddv_dd
-    return out
+    # d(dv)/dq = ts (da/dq) / den + ts^2 a (dg/dq) / den^2   (dg/dq only where implicit)
+    k1 = ts / den
+    k2 = ts * ts * a / (den * den) if implicit else 0.0
+    ddv_dv = k1 * g + k2 * (-c * s2 * inv_m)
+    ddv_dc = k1 * (-s * inv_m) + k2 * (-s1 * inv_m)
+    ddv_dd = k1 * inv_m
+    half = 0.5 * ts
+    jac[0, 0] = 1.0
+    jac[0, 1] = ts + half * ddv_dv
+    jac[0, 2] = half * ddv_dc
+    jac[0, 3] = half * ddv_dd
+    jac[1, 0] = 0.0
+    jac[1, 1] = 1.0 + ddv_dv
+    jac[1, 2] = ddv_dc
+    jac[1, 3] = ddv_dd
+    # x+ = x + ts v + ts dv / 2,  v+ = v + dv,  c+ = c (random walk),
+    # d+ = exp(-ts / tau_d) d (zero-mean residual)
+    x[0] = x[0] + ts * v + half * dv
+    x[1] = v + dv
+    x[3] = p[_DECAY] * d
+
+
+def _predict_row(x: np.ndarray, pc: np.ndarray, q: np.ndarray, f: np.ndarray, force: float,
+                 p: np.ndarray, fp: np.ndarray) -> None:
+    """One filter's prediction: ``x <- f(x, F)``, ``P <- F P F' + Q`` (``fp``: scratch 4x4)."""
+    _transition_row(x, force, p, f)
+    for i in range(4):
+        for k in range(4):
+            acc = f[i, 0] * pc[0, k]
+            for j in range(1, 4):
+                acc += f[i, j] * pc[j, k]
+            fp[i, k] = acc
+    for i in range(4):
+        for m in range(4):
+            acc = fp[i, 0] * f[m, 0]
+            for j in range(1, 4):
+                acc += fp[i, j] * f[m, j]
+            pc[i, m] = acc + q[i, m]
+
+
+def _update_row(x: np.ndarray, pc: np.ndarray, z: float, p: np.ndarray,
+                k: np.ndarray) -> None:
+    """One filter's Joseph-form update with the position ``z`` (``k``: scratch (4,))."""
+    r = p[_R]
+    # S = H P H' + R,  K = P H' / S
+    s = pc[0, 0] + r
+    for i in range(4):
+        k[i] = pc[i, 0] / s
+    if abs(x[1]) < p[_V_ADAPT]:
+        # sticking: the level is not observable (any level balances the force), and the
+        # stiff law's linearisation would move it at random; hold it (K_c = 0). The Joseph
+        # form below keeps P right for this non-optimal gain.
+        k[2] = 0.0
+    # y = z - H x
+    y = z - x[0]
+    for i in range(4):
+        x[i] += k[i] * y
+    # P = (I - K H) P (I - K H)' + K R K'   (Joseph form, as filterpy), in three passes:
+    # P - K P[0, :], then minus (the new) P[:, 0] K', plus R K K'
+    p0 = pc[0].copy()
+    for i in range(4):
+        for j in range(4):
+            pc[i, j] -= k[i] * p0[j]
+    c0 = pc[:, 0].copy()
+    for i in range(4):
+        for j in range(4):
+            pc[i, j] -= c0[i] * k[j]
+    for i in range(4):
+        for j in range(4):
+            pc[i, j] += k[i] * k[j] * r
+
+
+def _force_row(x: np.ndarray, p: np.ndarray) -> float:
+    """``F_f(v_hat, c_hat) - d_hat`` of one filter, N."""
+    v, c, d = x[1], x[2], x[3]
+    return c * _shape_row(v, p)[0] + p[_FV] * v - d
+
+
+def _bank_predict(x: np.ndarray, pc: np.ndarray, q: np.ndarray, f: np.ndarray,
+                  prm: np.ndarray, force: np.ndarray) -> None:
+    fp = np.empty((4, 4))
+    for i in range(x.shape[0]):
+        _predict_row(x[i], pc[i], q[i], f[i], force[i], prm[i], fp)
+
+
+def _bank_update(x: np.ndarray, pc: np.ndarray, prm: np.ndarray, z: np.ndarray) -> None:
+    k = np.empty(4)
+    for i in range(x.shape[0]):
+        _update_row(x[i], pc[i], z[i], prm[i], k)
+
+
+def _bank_force(x: np.ndarray, prm: np.ndarray, out: np.ndarray) -> None:
+    for i in range(x.shape[0]):
+        out[i] = _force_row(x[i], prm[i])
+
+
+def _episode_step(obs: np.ndarray, cols: np.ndarray, ep: np.ndarray, xref: np.ndarray,
+                  k: int, x: np.ndarray, pc: np.ndarray, q: np.ndarray, f: np.ndarray,
+                  prm: np.ndarray, out: np.ndarray) -> None:
+    """Step ``k`` of every row: predict with the last motor force, update with the position,
+    ``out`` <- the action (before the [-1, 1] clip)."""
+    fp = np.empty((4, 4))
+    kv = np.empty(4)
+    kk = min(k, xref.shape[1] - 1)
+    for i in range(x.shape[0]):
+        o = cols[i, _OBS_ROW]
+        if k > 0:
+            # motor force of the last sample: it acted over [t_k-1, t_k)
+            _predict_row(x[i], pc[i], q[i], f[i], obs[o, cols[i, _F_COL]] * ep[i, _F_SCALE],
+                         prm[i], fp)
+        # z = x_ref - e
+        _update_row(x[i], pc[i], xref[i, kk] - obs[o, cols[i, _E_COL]] * ep[i, _E_SCALE],
+                    prm[i], kv)
+        # u = F_f(v_hat, c_hat) - d_hat: cancel the estimated friction and disturbance
+        u = ep[i, _GAIN] * _force_row(x[i], prm[i])
+        out[i] = min(max(u, -ep[i, _LIMIT]), ep[i, _LIMIT]) / ep[i, _SCALE]
+
+
+_shape_row = numba.njit(cache=True, inline="always")(_shape_row)
+_transition_row = numba.njit(cache=True, inline="always")(_transition_row)
+_predict_row = numba.njit(cache=True, inline="always")(_predict_row)
+_update_row = numba.njit(cache=True, inline="always")(_update_row)
+_force_row = numba.njit(cache=True, inline="always")(_force_row)
+_bank_predict = numba.njit(cache=True)(_bank_predict)
+_bank_update = numba.njit(cache=True)(_bank_update)
+_bank_force = numba.njit(cache=True)(_bank_force)
+_episode_step = numba.njit(cache=True)(_episode_step)
 
 
 def stribeck_shape(v: float, model: EKFModel) -> tuple[float, float, float]:
     """``s(v)``, ``s'(v)`` (s/m) and ``s''(v)`` (s^2/m^2) of the unit-level law.
 
     ``s(v) = h(v) tanh(v / eps)`` with ``h(v) = 1 + (rho - 1) exp(-(v / v_s)^2)``; the
-    filters' own kernel, on one row.
+    filters' own kernel.
     """
-    s, s1, s2 = _shape(np.array([float(v)]), _RowParams.of([model]))
-    return float(s[0]), float(s1[0]), float(s2[0])
+    s, s1, s2 = _shape_row(float(v), _param_rows([model], np.zeros(1))[0])
+    return float(s), float(s1), float(s2)
 
 
 def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
                    jacobian: np.ndarray | None = None) -> np.ndarray:
     """One step of the EKF's model: the next state and (in place) its Jacobian.
 
-    The filters' own kernel (:class:`EKFBank`), on one row.
+    The filters' own kernel (:class:`EKFBank`).
 
     Parameters
     ----------
@@ -285,22 +359,24 @@ def ekf_transition(state: np.ndarray, force: float, model: EKFModel,
     ndarray, shape (4, 1)
         The next state.
     """
-    x = np.asarray(state, dtype=np.float64).reshape(1, 4)
-    jac = None if jacobian is None else jacobian[None, :, :]
-    return _transition(x, np.array([float(force)]), _RowParams.of([model]), jac).reshape(4, 1)
+    x = np.array(state, dtype=np.float64).reshape(4)
+    jac = np.zeros((4, 4)) if jacobian is None else np.zeros((4, 4)) + jacobian
+    _transition_row(x, float(force), _param_rows([model], np.zeros(1))[0], jac)
+    if jacobian is not None:
+        jacobian[:2] = jac[:2]
+    return x.reshape(4, 1)
 
 
 class EKFBank:
-    """``n`` extended Kalman filters of the friction model, stepped in one set of numpy calls.
+    """``n`` extended Kalman filters of the friction model, stepped together.
 
     Each row is the filter of the module docstring: the linearly implicit transition
     (:func:`ekf_transition`) with its analytic Jacobian, ``P = F P F' + Q``, and the Joseph-form
     update with the encoder position (``H = [1 0 0 0]``), the level held below ``3 eps``.
     filterpy's ``ExtendedKalmanFilter`` does the same for one filter at a time, at a Python
-    and small-matrix overhead of about 100 us a step; here one call steps every row, and a
-    row's numbers do not depend on the other rows (elementwise arithmetic only, no matmul:
-    the compensator's own act and a batch of episodes are then the same code and the same
-    bits).
+    and small-matrix overhead of tens of microseconds a step; here one compiled call steps
+    every row, and a row's numbers do not depend on the other rows (the compensator's own
+    act and a batch of episodes are the same code and the same bits).
 
     Parameters
     ----------
@@ -321,33 +397,36 @@ class EKFBank:
         States (posterior after :meth:`update_position`).
     P : ndarray, shape (n, 4, 4)
         Covariances.
+    Q : ndarray, shape (n, 4, 4)
+        Process noise covariances.
     """
 
-    _ARRAYS = ("x", "P", "Q", "r", "v_adapt", "_F")
+    _ARRAYS = ("x", "P", "Q", "prm", "_F")
 
     def __init__(self, models: Sequence[EKFModel], q: np.ndarray, r: np.ndarray,
                  x0: np.ndarray, p0: np.ndarray) -> None:
         n = len(models)
-        self.prm = _RowParams.of(models)
         self.x = np.array(x0, dtype=np.float64).reshape(n, 4)
         self.P = np.array(p0, dtype=np.float64).reshape(n, 4, 4)
         self.Q = np.array(q, dtype=np.float64).reshape(n, 4, 4)
-        self.r = np.array(r, dtype=np.float64).reshape(n)
-        # below this estimated speed the level is held: 3 eps, where tanh(v / eps) > 0.995
-        self.v_adapt = np.array([3.0 * m.eps for m in models])
+        self.prm = _param_rows(models, np.asarray(r, dtype=np.float64).reshape(n))
         # the Jacobians; rows 2 and 3 are constant, diag(1, decay)
         self._F = np.zeros((n, 4, 4))
         self._F[:, 2, 2] = 1.0
-        self._F[:, 3, 3] = self.prm.decay
+        self._F[:, 3, 3] = self.prm[:, _DECAY]
 
     def __len__(self) -> int:
         return self.x.shape[0]
+
+    @property
+    def r(self) -> np.ndarray:
+        """Position measurement variances (n,), m^2."""
+        return self.prm[:, _R]
 
     def rows(self, sl: slice) -> EKFBank:
         """The filters of rows ``sl`` as a bank whose arrays are views of this one's: stepping
         either steps both."""
         out = object.__new__(EKFBank)
-        out.prm = self.prm.rows(sl)
         for name in self._ARRAYS:
             setattr(out, name, getattr(self, name)[sl])
         return out
@@ -356,65 +435,38 @@ class EKFBank:
     def concatenate(cls, banks: Sequence[EKFBank]) -> EKFBank:
         """One bank of the rows of ``banks`` (copies), in order."""
         out = object.__new__(cls)
-        out.prm = _RowParams.concatenate([b.prm for b in banks])
         for name in cls._ARRAYS:
             setattr(out, name, np.concatenate([getattr(b, name) for b in banks]))
         return out
 
     def predict(self, force: np.ndarray) -> None:
-        """Propagate every row over one sample with its motor force ``force`` (n,), N."""
-        f, p = self._F, self.P
-        # the Jacobian at the prior state, then x+ = f(x, F)
-        self.x[...] = _transition(self.x, force, self.prm, f)
-        # P = F P F' + Q, the 4x4 products written out (row independent, see above)
-        fp = f[:, :, 0, None] * p[:, None, 0, :]
-        for j in range(1, 4):
-            fp += f[:, :, j, None] * p[:, None, j, :]
-        fpf = fp[:, :, 0, None] * f[:, None, :, 0]
-        for j in range(1, 4):
-            fpf += fp[:, :, j, None] * f[:, None, :, j]
-        np.add(fpf, self.Q, out=p)
+        """Propagate every row over one sample with its motor force ``force`` (n,), N:
+        ``x+ = f(x, F)``, ``P+ = F P F' + Q`` with ``F`` the Jacobian at the prior state."""
+        _bank_predict(self.x, self.P, self.Q, self._F, self.prm,
+                      np.asarray(force, dtype=np.float64).reshape(len(self)))
 
     def update_position(self, z: np.ndarray) -> None:
         """Update every row with its encoder position ``z`` (n,), m (Joseph form)."""
-        p, x, r = self.P, self.x, self.r
-        # S = H P H' + R,  K = P H' / S
-        k = p[:, :, 0] / (p[:, 0, 0] + r)[:, None]
-        # sticking: the level is not observable (any level balances the force), and the
-        # stiff law's linearisation would move it at random; hold it (K_c = 0). The Joseph
-        # form below keeps P right for this non-optimal gain.
-        k[:, 2] = np.where(np.abs(x[:, 1]) < self.v_adapt, 0.0, k[:, 2])
-        # y = z - H x
-        y = z - x[:, 0]
-        x += k * y[:, None]
-        # P = (I - K H) P (I - K H)' + K R K'   (Joseph form, as filterpy): P - K P[0, :],
-        # then minus (the new) P[:, 0] K', plus R K K'
-        p -= k[:, :, None] * p[:, None, 0, :]
-        p -= p[:, :, 0, None] * k[:, None, :]
-        p += k[:, :, None] * k[:, None, :] * r[:, None, None]
+        _bank_update(self.x, self.P, self.prm, np.asarray(z, dtype=np.float64).reshape(len(self)))
 
     def friction_force(self) -> np.ndarray:
         """``F_f(v_hat, c_hat) - d_hat`` per row, N: the force the compensator cancels."""
-        v, c, d = self.x[:, 1], self.x[:, 2], self.x[:, 3]
-        s = _shape(v, self.prm, derivatives=False)[0]
-        return c * s + self.prm.fv * v - d
+        out = np.empty(len(self))
+        _bank_force(self.x, self.prm, out)
+        return out
 
 
 class _EpisodeRows:
-    """The filters of one or more episodes with what each row reads: which observation row,
-    which columns and scales, its reference positions, its gain and clip.
+    """The filters of one or more episodes with what each row reads: which observation row
+    and columns (``cols``), its scales, gain and clip (``ep``), its reference positions.
 
     One compensator's episode is D rows (one per axis, observation row 0); a batch of N
     episodes is their concatenation, N*D rows. :meth:`step` is the act of every row.
     """
 
-    def __init__(self, bank: EKFBank, xref: np.ndarray, obs_row: np.ndarray,
-                 e_col: np.ndarray, f_col: np.ndarray, e_scale: np.ndarray,
-                 f_scale: np.ndarray, gain: np.ndarray, limit: np.ndarray,
-                 scale: np.ndarray) -> None:
-        self.bank, self.xref, self.obs_row = bank, xref, obs_row
-        self.e_col, self.f_col, self.e_scale, self.f_scale = e_col, f_col, e_scale, f_scale
-        self.gain, self.limit, self.scale = gain, limit, scale
+    def __init__(self, bank: EKFBank, xref: np.ndarray, cols: np.ndarray,
+                 ep: np.ndarray) -> None:
+        self.bank, self.xref, self.cols, self.ep = bank, xref, cols, ep
 
     @classmethod
     def concatenate(cls, parts: Sequence[_EpisodeRows]) -> _EpisodeRows:
@@ -424,28 +476,19 @@ class _EpisodeRows:
         k_max = max(p.xref.shape[1] for p in parts)
         xref = np.concatenate([np.pad(p.xref, ((0, 0), (0, k_max - p.xref.shape[1])),
                                       mode="edge") for p in parts])
-        obs_row = np.concatenate([np.full(len(p.obs_row), i) for i, p in enumerate(parts)])
-
-        def cat(name: str) -> np.ndarray:
-            return np.concatenate([getattr(p, name) for p in parts])
-
-        return cls(EKFBank.concatenate([p.bank for p in parts]), xref, obs_row,
-                   cat("e_col"), cat("f_col"), cat("e_scale"), cat("f_scale"), cat("gain"),
-                   cat("limit"), cat("scale"))
+        cols = np.concatenate([p.cols for p in parts])
+        cols[:, _OBS_ROW] = np.concatenate([np.full(len(p.cols), i)
+                                            for i, p in enumerate(parts)])
+        return cls(EKFBank.concatenate([p.bank for p in parts]), xref, cols,
+                   np.concatenate([p.ep for p in parts]))
 
     def step(self, observations: np.ndarray, k: int) -> np.ndarray:
         """Actions (before the [-1, 1] clip) of step ``k`` for ``observations`` (N, obs_dim)."""
-        bank = self.bank
-        if k > 0:
-            # motor force of the last sample: it acted over [t_k-1, t_k)
-            bank.predict(observations[self.obs_row, self.f_col] * self.f_scale)
-        # z = x_ref - e
-        z = (self.xref[:, min(k, self.xref.shape[1] - 1)]
-             - observations[self.obs_row, self.e_col] * self.e_scale)
-        bank.update_position(z)
-        # u = F_f(v_hat, c_hat) - d_hat: cancel the estimated friction and disturbance
-        u = self.gain * bank.friction_force()
-        return np.minimum(np.maximum(u, -self.limit), self.limit) / self.scale
+        b = self.bank
+        out = np.empty(len(b))
+        _episode_step(np.ascontiguousarray(observations, dtype=np.float64), self.cols,
+                      self.ep, self.xref, int(k), b.x, b.P, b.Q, b._F, b.prm, out)
+        return out
 
 
 class _FilterView:
@@ -568,16 +611,13 @@ class ExtendedFrictionObserver(ForceObserver):
                       (self.level_std * model.rho * max(model.fc, 1.0))**2])
         bank = EKFBank([model] * d, np.broadcast_to(q, (d, 4, 4)), np.full(d, r[0, 0]), x0,
                        np.broadcast_to(p0, (d, 4, 4)))
-        cols = np.array(self._cols, dtype=np.intp).reshape(d, 2)
-
-        def per_row(value: float) -> np.ndarray:
-            return np.full(d, float(value))
-
-        self._rows = _EpisodeRows(bank, np.array(self._xref, dtype=np.float64),
-                                  np.zeros(d, dtype=np.intp), cols[:, 0], cols[:, 1],
-                                  per_row(self._e_scale), per_row(self._f_scale),
-                                  per_row(self.gain), per_row(self._limit),
-                                  per_row(self._scale))
+        cols = np.zeros((d, 3), dtype=np.intp)  # observation row 0: the episode's own
+        cols[:, _E_COL] = [c[0] for c in self._cols]
+        cols[:, _F_COL] = [c[1] for c in self._cols]
+        ep = np.empty((d, 5))
+        ep[:, _E_SCALE], ep[:, _F_SCALE] = self._e_scale, self._f_scale
+        ep[:, _GAIN], ep[:, _LIMIT], ep[:, _SCALE] = self.gain, self._limit, self._scale
+        self._rows = _EpisodeRows(bank, np.array(self._xref, dtype=np.float64), cols, ep)
         self._k = 0
 
     @property
