@@ -52,6 +52,15 @@ Tuning (not fitted on any run; the category is ``online``)
 * ``eps = 1e-4 m/s``: the width of the sign's smooth crossing, below the encoder's one-sample
   velocity resolution ``q / ts`` (0.25 mm/s on the default axis) and the Stribeck velocity
   (2 mm/s), so that the law is the Stribeck law wherever the velocity is measurable.
+
+Implementation
+--------------
+The filters of an episode's axes, and those of several episodes stepped together
+(:meth:`ExtendedFrictionObserver.batch`), are the rows of one :class:`EKFBank`: states
+(n, 4), covariances (n, 4, 4), one compiled call per sample for every row. It is filterpy's
+``ExtendedKalmanFilter`` (predict ``P = F P F' + Q``, the Joseph-form update) written out for
+this model, each row by the same scalar code, so that a row's numbers do not depend on the
+other rows: the compensator's own act and a batch of episodes give the same bits.
 """
 
 from __future__ import annotations
@@ -131,8 +140,8 @@ def ekf_model(axis: Axis, eps: float = 1.0e-4, residual_time: float | None = Non
 # Each row (one filter) is computed by the same scalar code, whatever the other rows and their
 # number: a batch's row i is then bit for bit member i's own act. Compiled with numba (strict
 # IEEE, no fast-math) because the step is ~150 scalar operations on 4-vectors and 4x4
-# matrices: as numpy calls on arrays of a few rows it cost more per call than filterpy's
-# Python (measured in tests/compensators/test_ekf_batch.py), compiled it costs microseconds.
+# matrices: written as ~150 numpy calls on arrays of a few rows it took 157 us per act against
+# filterpy's 58 us (one axis); compiled, the act takes ~30 us, most of it the act's checks.
 # The 4x4 products are written out, summed in a fixed order (no BLAS, whose blocking would
 # depend on the batch size).
 
@@ -524,6 +533,9 @@ class _FilterView:
 
 class ExtendedFrictionObserver(ForceObserver):
     """EKF on ``[x, v, F_c, d]`` with a smooth Stribeck law; feeds back ``F_f_hat - d_hat``.
+
+    One filter per axis, the rows of an :class:`EKFBank`; :meth:`batch` steps the episodes
+    of several instances in one bank.
 
     Parameters
     ----------
