@@ -28,7 +28,7 @@ from fricbench.compensators.rl_policy import load_policy
 from fricbench.gym import ServoAxisEnv, get_spec
 
 PAPER, CIRCLE = "fricbench/PaperAxis-v0", "fricbench/CircleContouring-v0"
-VECTORISED = ("kalman", "rl-sac", "rl-ppo", "rl-residual")
+VECTORISED = ("kalman", "rl-sac", "rl-ppo", "rl-residual", "ekf")
 POLICIES = sorted(Path(__file__).resolve().parents[2].joinpath("fricbench", "policies")
                   .glob("*.json"))
 # the references of up to three members of a batch (another per member: each is read from
