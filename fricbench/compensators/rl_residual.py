@@ -13,8 +13,15 @@ with ``d_hat`` the observer's disturbance estimate (:class:`~fricbench.compensat
 residual_base.ObserverBank`, the same filter the policy was trained on top of, see
 :mod:`fricbench.compensators.residual_env`), ``pi`` the policy's deterministic action in
 [-1, 1] on the env's observation plus ``d_hat`` scaled by the observation's force scale, and
-``s_r`` the residual's newtons per unit (the policy JSON's ``action_scale``). The total is
-clipped to the env's action range.
+``s_r`` the residual's force per unit. The total is clipped to the env's action range.
+
+The policy reads every force in units of the env's observation force scale ``F_s`` (the motor
+force column and ``d_hat / F_s``), so its residual is read in the same unit: ``s_r`` is the
+policy JSON's ``action_scale`` (newtons on its training env) times ``F_s / F_s,train``. On an
+env of the training env's size the ratio is exactly 1 (the JSON's newtons); on a smaller axis
+the residual shrinks with everything else the policy sees (EMPS-v0: ``F_s`` 152 N against
+1000 N, a 400 N residual would span ten times the drive's 40 N range). A policy whose
+training env is not registered here keeps its JSON's newtons.
 
 The shipped policy (``fricbench/policies/rl-residual.*``) was trained by
 ``fricbench train rl-residual`` on ``fricbench/RandomFriction-v0``'s nominal axis with a plant
@@ -132,6 +139,11 @@ class ResidualRLCompensator(Compensator):
                                    f"{self.id} on {env_id} needs {nf + 1} features (the env's "
                                    f"{nf} and the base's estimate) and 1 action per axis")
         self.policy_: NumpyPolicy = pol
+        try:  # the force unit the policy learned in (see the module docstring)
+            self.train_force_scale_: float | None = \
+                env_setup(spec.env_id)[1].observation.force_scale
+        except (KeyError, ValueError):
+            self.train_force_scale_ = None
         self._fitted = True
         return self
 
@@ -145,7 +157,8 @@ class ResidualRLCompensator(Compensator):
         self._observers = EpisodeObservers(context, bandwidth=self.bandwidth_, gain=self.gain_)
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
-        return _residual_action(self._observers, self.policy_, self._nf, observation[None])
+        return _residual_action(self._observers, self.policy_, self._nf, observation[None],
+                                self.train_force_scale_)
 
     @classmethod
     def batch(cls, members: Sequence[Compensator]) -> CompensatorBatch:
@@ -157,24 +170,29 @@ class ResidualRLCompensator(Compensator):
         comps = [m for m in members if isinstance(m, ResidualRLCompensator)]
         first = comps[0] if len(comps) == len(members) else None
         if first is None or not all(c._nf == first._nf and first.policy_.same_as(c.policy_)
+                                    and c.train_force_scale_ == first.train_force_scale_
                                     for c in comps):
             return default
         try:
             observers = EpisodeObservers.stack([c._observers for c in comps])
         except ValueError:
             return default
-        return _ResidualBatch(comps, observers, first.policy_, first._nf)
+        return _ResidualBatch(comps, observers, first.policy_, first._nf,
+                              first.train_force_scale_)
 
 
 def _residual_action(observers: EpisodeObservers, policy: NumpyPolicy, nf: int,
-                     observations: np.ndarray) -> np.ndarray:
+                     observations: np.ndarray, train_force_scale: float | None) -> np.ndarray:
     """Step the base on observations (N, obs_dim); actions (N * D,) of base plus residual."""
     observers.step(observations)
     bank, n, d = observers.bank, observations.shape[0], observers.n_axes
     rows = observations[:, : d * nf].reshape(n * d, nf)
     aug = np.column_stack([rows, bank.d_hat / observers.force_scale])
     # u = clip(-gain d_hat, +-F_max) + s_r pi(o, d_hat / F_s)
-    residual = policy(aug)[:, 0] * policy.spec.action_scale
+    # s_r in the env's force unit (exactly the JSON's newtons when F_s is the training env's)
+    s_r = policy.spec.action_scale if train_force_scale is None \
+        else policy.spec.action_scale * (observers.force_scale / train_force_scale)
+    residual = policy(aug)[:, 0] * s_r
     return (bank.force() + residual) / observers.action_scale
 
 
@@ -182,9 +200,11 @@ class _ResidualBatch(CompensatorBatch):
     """``rl-residual`` episodes: one observer bank, one policy call per sample."""
 
     def __init__(self, members: Sequence[Compensator], observers: EpisodeObservers,
-                 policy: NumpyPolicy, nf: int) -> None:
+                 policy: NumpyPolicy, nf: int, train_force_scale: float | None) -> None:
         super().__init__(members)
         self._observers, self._policy, self._nf = observers, policy, nf
+        self._train_force_scale = train_force_scale
 
     def _act_rows(self, observations: np.ndarray) -> np.ndarray:
-        return _residual_action(self._observers, self._policy, self._nf, observations)
+        return _residual_action(self._observers, self._policy, self._nf, observations,
+                                self._train_force_scale)
