@@ -324,6 +324,14 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     if residual and vec_env != "native":
         raise ValueError(f"vec_env={vec_env!r}: rl-residual trains on the native vector env "
                          "(its base observer runs over all sub-envs); expected 'native'")
+    _, task = env_setup(env_id)
+    scored = [c.id for c in task.trajectories if not c.seeded]
+    if scored:
+        # an env's fixed references are what the benchmark scores it on: learning on them is
+        # evaluating on the training data
+        raise ValueError(f"env_id={env_id!r}: its references ({', '.join(scored)}) are fixed "
+                         "ones the benchmark scores; expected an env of seeded 'random' "
+                         "training references, such as fricbench/RandomFriction-v0")
     json_path, weights_name = _out_paths(default_out(comp_id, seed) if out is None else out,
                                          comp_id)
     for path in (json_path, json_path.parent / weights_name):
@@ -338,7 +346,6 @@ def train_agent(comp_id: str, *, env_id: str = "fricbench/RandomFriction-v0",
     res_cfg = {k: float(hp.pop(k, v)) for k, v in RESIDUAL.items()} if residual else {}
     n_envs = int(hp.pop("n_envs"))
     pool = int(hp.pop("reference_pool"))
-    _, task = env_setup(env_id)
     if residual:
         from stable_baselines3.common.vec_env import VecMonitor
 

@@ -114,3 +114,13 @@ def test_train_agent_raises_before_training(tmp_path: Path, no_training: None) -
     with pytest.raises(FileExistsError) as exc:
         train_agent("rl-ppo", steps=256, out=tmp_path)  # a folder: <folder>/rl-ppo.*
     assert exc.value.filename == str(tmp_path / "rl-ppo.pt")
+
+
+@pytest.mark.parametrize("env_id", ["fricbench/EMPS-v0", "fricbench/PaperAxis-v0"])
+def test_cli_refuses_an_env_of_scored_references(env_id: str, tmp_path: Path, no_training: None,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """Its fixed references are the benchmark's evaluation set: never trained on."""
+    assert main(["train", "rl-residual", "--env", env_id, "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err
+    assert f"env_id='{env_id}': its references (m_serial, " in err
+    assert "Traceback" not in err and not list(tmp_path.iterdir())
