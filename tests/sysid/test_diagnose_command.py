@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 
@@ -49,7 +50,9 @@ def test_json_keys_and_atomic_report(run_csv, tmp_path, capsys):
     data = json.loads(out.read_text())
     assert {"effects", "position", "effort", "steps"} <= set(data)
     assert set(data["position"]) == {"rms_before", "rms_after", "max_before", "max_after"}
-    assert set(data["effort"]) >= {"relerr_before_pct", "relerr_after_pct"}
+    assert set(data["effort"]) >= {"relerr_before_pct", "relerr_after_pct",
+                                    "relerr_sliding_before_pct", "relerr_sliding_after_pct"}
+    assert all(math.isfinite(v) and v >= 0.0 for v in data["effort"].values())
     assert "coulomb_friction" in data["effects"]
     assert data["position"]["rms_after"] < data["position"]["rms_before"]
     for step in data["steps"]:

@@ -222,3 +222,25 @@ def test_the_step_run_of_the_dc_motor_is_diagnosed_honestly() -> None:
         val = out["validation"]["position"]
         assert val["rms_after"] <= 1.02 * val["rms_before"]
         assert math.isfinite(val["rms_after"])
+
+
+def test_the_effort_error_while_sliding_leaves_out_the_rests() -> None:
+    """Beside the effort error over every sample, the report gives it over the samples where
+    the axis slides (speed above 5 % of its largest), computed on exactly those rows."""
+    from fricbench.sysid.diagnose.models import InverseDynamics
+
+    rng = np.random.default_rng(4)
+    t, xr, x, u = _pd_loop(rng, coulomb=0.3, noise=2e-7)
+    res = diagnose(validate_arrays(t, xr, x, u))
+    effort = res.train.effort()
+    assert effort is not None
+    idim = InverseDynamics(res.prep, res.prep.u)
+    speed = np.abs(idim.v_dec)
+    rows = np.flatnonzero(speed > 0.05 * speed.max())
+    assert 20 <= rows.size < speed.size
+    final = res.search.final.model
+    assert effort["relerr_sliding_before_pct"] == idim.relerr(res.linear.plant, rows)
+    assert effort["relerr_sliding_after_pct"] == idim.relerr(final.plant, rows)
+    assert effort["relerr_after_pct"] == idim.relerr(final.plant)
+    assert effort["relerr_sliding_after_pct"] != effort["relerr_after_pct"]
+    assert "relerr_sliding_after_pct" in res.to_dict()["effort"]

@@ -394,6 +394,15 @@ def _run_open_loop(args: argparse.Namespace, run_data: RunData, other: RunData |
     return EXIT_OK
 
 
+def _sliding(effort: dict) -> str:
+    """The effort error over the sliding samples, when the report has it (at rest the effort
+    is the integrator's hold against stiction, which the error over every sample counts)."""
+    if "relerr_sliding_before_pct" not in effort:
+        return ""
+    return (f" (while sliding {effort['relerr_sliding_before_pct']:.3f} -> "
+            f"{effort['relerr_sliding_after_pct']:.3f} %)")
+
+
 def _print_summary(report: dict, n_samples: int, elapsed: float,
                    unit: PositionUnit | None = None, printed: frozenset[str] = frozenset()
                    ) -> None:
@@ -421,14 +430,16 @@ def _print_summary(report: dict, n_samples: int, elapsed: float,
           f"{nf[f'quantum_{sfx}'] * k:.3g} {lab})")
     if "effort" in report:
         e = report["effort"]
-        print(f"effort relerr {e['relerr_before_pct']:.3f} -> {e['relerr_after_pct']:.3f} %")
+        print(f"effort relerr {e['relerr_before_pct']:.3f} -> {e['relerr_after_pct']:.3f} %"
+              + _sliding(e))
     if "validation" in report:
         v = report["validation"]
         vp = v["position"]
         print(f"validation ({os.path.basename(v['source'])}): position rms "
               f"{vp['rms_before'] * k:.4g} -> {vp['rms_after'] * k:.4g} {lab}"
               + (f", effort relerr {v['effort']['relerr_before_pct']:.3f} -> "
-                 f"{v['effort']['relerr_after_pct']:.3f} %" if "effort" in v else ""))
+                 f"{v['effort']['relerr_after_pct']:.3f} %{_sliding(v['effort'])}"
+                 if "effort" in v else ""))
     print(f"stop: {report['stop_reason']}")
     print(f"elapsed: {elapsed:.1f} s for {n_samples} samples")
 

@@ -42,6 +42,14 @@ input, that remainder would re-inject the very effect the diagnosis looks for (t
 reaction to the backlash it saw on the motor side), so below 5 % it is not used."""
 
 
+SLIDING_SHARE = 0.05
+"""A sample slides when its speed exceeds this share of the run's largest (the report's
+"moving" samples use the same)."""
+
+MIN_SLIDING_SAMPLES = 20
+"""Fewer sliding samples than this give no sliding effort error (too few to mean anything)."""
+
+
 @dataclass
 class RunEvaluation:
     """Errors of the linear and the final model on one run.
@@ -51,7 +59,11 @@ class RunEvaluation:
     y_before, y_after : ndarray
         Free-run positions of the linear and final model, m.
     effort_before, effort_after : float or None
-        Relative effort errors of the inverse dynamics, %.
+        Relative effort errors of the inverse dynamics over every sample, %.
+    effort_sliding_before, effort_sliding_after : float or None
+        The same over the samples where the axis slides (speed above 5 % of its largest), %:
+        at rest the effort is whatever the controller's integrator holds against stiction,
+        which no friction model predicts; ``None`` with fewer than 20 such samples.
     injected_share : float or None
         Rms share of the effort the controller law does not explain (runs with effort).
     used_injected : bool
@@ -65,6 +77,8 @@ class RunEvaluation:
     effort_after: float | None
     injected_share: float | None = None
     used_injected: bool = False
+    effort_sliding_before: float | None = None
+    effort_sliding_after: float | None = None
 
     def position(self) -> dict[str, float]:
         """The issue's position metrics, m."""
@@ -77,7 +91,11 @@ class RunEvaluation:
         """The issue's effort metrics, %."""
         if self.effort_before is None or self.effort_after is None:
             return None
-        return {"relerr_before_pct": self.effort_before, "relerr_after_pct": self.effort_after}
+        out = {"relerr_before_pct": self.effort_before, "relerr_after_pct": self.effort_after}
+        if self.effort_sliding_before is not None and self.effort_sliding_after is not None:
+            out["relerr_sliding_before_pct"] = self.effort_sliding_before
+            out["relerr_sliding_after_pct"] = self.effort_sliding_after
+        return out
 
 
 @dataclass
@@ -338,11 +356,15 @@ def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
     w, share, used = _injected(final.controller, prep)
     y_before, _ = simulate_position(linear, prep, w)
     y_after, _ = simulate_position(final, prep, w)
-    eb = ea = None
+    eb = ea = sb = sa = None
     if prep.u is not None and isinstance(final.controller, ArxController):
         idim = InverseDynamics(prep, prep.u)
         eb, ea = idim.relerr(linear.plant), idim.relerr(final.plant)
-    return RunEvaluation(prep, y_before, y_after, eb, ea, share, used)
+        speed = np.abs(idim.v_dec)
+        sliding = np.flatnonzero(speed > SLIDING_SHARE * float(np.max(speed, initial=0.0)))
+        if sliding.size >= MIN_SLIDING_SAMPLES:
+            sb, sa = idim.relerr(linear.plant, sliding), idim.relerr(final.plant, sliding)
+    return RunEvaluation(prep, y_before, y_after, eb, ea, share, used, sb, sa)
 
 
 def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
