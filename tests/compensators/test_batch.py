@@ -34,16 +34,6 @@ POLICIES = sorted(Path(__file__).resolve().parents[2].joinpath("fricbench", "pol
 # the references of up to three members of a batch (another per member: each is read from
 # its own reset state); the two-axis env has one trajectory
 TRAJECTORIES = {PAPER: ("s_curve", "reversal_sine", "m_serial"), CIRCLE: ("circle",) * 3}
-# lighter settings for the registry sweep (as the conformance test's)
-FAST: dict[str, dict[str, Any]] = {
-    "friction-ff": {"n_runs": 1, "run_duration": 8.0, "v_eps_grid": (1e-4,),
-                    "advance_grid": (1,)},
-    "ilc": {"iterations": 2},
-    "tf-precomp": {"n_runs": 1, "run_duration": 8.0},
-    "greybox-precomp": {"n_runs": 1, "run_duration": 8.0},
-    "tf-lstm-precomp": {"n_runs": 1, "run_duration": 8.0,
-                        "predictor_kwargs": {"max_epochs": 1, "hidden_size": 4}},
-}
 
 
 def test_shipped_policies_found() -> None:
@@ -155,10 +145,11 @@ _FITTED: dict[tuple[str, str], Compensator] = {}
 
 
 def _fitted(cid: str, env_id: str = PAPER, **kwargs: Any) -> Compensator:
-    """``cid`` fitted once per env (seed 3, the sweep's settings) and kept for copies."""
+    """``cid`` fitted once per env (seed 3, with the constructor keywords ``kwargs``) and kept
+    for copies."""
     key = (cid, env_id + repr(sorted(kwargs.items())))
     if key not in _FITTED:
-        comp = make_compensator(cid, **{**FAST.get(cid, {}), **kwargs})
+        comp = make_compensator(cid, **kwargs)
         try:
             comp.fit(env_id, seed=3)
         except ImportError as exc:  # an optional dependency (the predictors) missing
@@ -198,10 +189,11 @@ def test_members_that_differ_act_row_by_row() -> None:
 
 
 @pytest.mark.parametrize("cid", sorted(compensator_registry.ids()))
-def test_every_compensator_batch_is_each_member(cid: str) -> None:
+def test_every_compensator_batch_is_each_member(cid: str,
+                                                light: dict[str, dict[str, Any]]) -> None:
     """Every registered compensator, vectorised or row by row (the default), on two seeds'
     plants of the single-axis env (light fits; the vectorised ones are also run above)."""
-    comp = _fitted(cid)
+    comp = _fitted(cid, **light.get(cid, {}))
     batch = _check_batch(PAPER, _copies(comp, 2), _copies(comp, 2), 120,
                          TRAJECTORIES[PAPER][:2])
     assert (type(batch) is not CompensatorBatch) == (cid in VECTORISED)

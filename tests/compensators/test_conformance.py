@@ -21,16 +21,6 @@ from fricbench.trajectories import make_trajectory
 
 ENV = "fricbench/PaperAxis-v0"
 
-# lighter settings so the sweep stays quick; the defaults are exercised in the module tests
-FAST: dict[str, dict[str, Any]] = {
-    "friction-ff": {"n_runs": 1, "run_duration": 8.0, "v_eps_grid": (1e-4,),
-                    "advance_grid": (1,)},
-    "ilc": {"iterations": 3},
-    "tf-precomp": {"n_runs": 1, "run_duration": 8.0},
-    "greybox-precomp": {"n_runs": 1, "run_duration": 8.0},
-    "tf-lstm-precomp": {"n_runs": 1, "run_duration": 8.0,
-                        "predictor_kwargs": {"max_epochs": 1, "hidden_size": 4}},
-}
 
 
 def _ids() -> list[str]:
@@ -61,9 +51,9 @@ def _context(env: ServoAxisEnv) -> EpisodeContext:
 _FITTED: dict[str, Any] = {}
 
 
-def _fitted(cid: str) -> Any:
+def _fitted(cid: str, light: dict[str, dict[str, Any]]) -> Any:
     if cid not in _FITTED:
-        comp = make_compensator(cid, **FAST.get(cid, {}))
+        comp = make_compensator(cid, **light.get(cid, {}))
         try:
             comp.fit(ENV, seed=3)
         except ImportError as exc:  # an optional dependency (e.g. the predictors) missing
@@ -73,8 +63,8 @@ def _fitted(cid: str) -> Any:
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_class_attributes(cid: str) -> None:
-    comp = make_compensator(cid, **FAST.get(cid, {}))
+def test_class_attributes(cid: str, light: dict[str, dict[str, Any]]) -> None:
+    comp = make_compensator(cid, **light.get(cid, {}))
     assert comp.id == cid
     assert comp.action_mode in ("force", "offset")
     assert isinstance(comp.learns, bool)
@@ -83,9 +73,9 @@ def test_class_attributes(cid: str) -> None:
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_declares_a_category(cid: str) -> None:
+def test_declares_a_category(cid: str, light: dict[str, dict[str, Any]]) -> None:
     """Every registered compensator says what it uses: trials, model, online or policy."""
-    comp = make_compensator(cid, **FAST.get(cid, {}))
+    comp = make_compensator(cid, **light.get(cid, {}))
     assert type(comp).category in CATEGORIES, (cid, type(comp).category)
     # what it declares agrees with what it does: a model is fitted, trials need no fit
     if type(comp).category == "model":
@@ -95,20 +85,20 @@ def test_declares_a_category(cid: str) -> None:
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_not_fitted_raises(cid: str) -> None:
-    comp = make_compensator(cid, **FAST.get(cid, {}))
+def test_not_fitted_raises(cid: str, light: dict[str, dict[str, Any]]) -> None:
+    comp = make_compensator(cid, **light.get(cid, {}))
     env = _env(comp)
     env.reset(seed=0, options={"trajectory": "s_curve"})
     if comp.learns:
         with pytest.raises(NotFittedError, match=cid):
             comp.reset(_context(env), seed=0)
     with pytest.raises(RuntimeError):
-        make_compensator(cid, **FAST.get(cid, {})).act(np.zeros(17))
+        make_compensator(cid, **light.get(cid, {})).act(np.zeros(17))
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_episode_shapes_range_finite(cid: str) -> None:
-    comp = _fitted(cid)
+def test_episode_shapes_range_finite(cid: str, light: dict[str, dict[str, Any]]) -> None:
+    comp = _fitted(cid, light)
     env = _env(comp)
     obs, _ = env.reset(seed=1, options={"trajectory": "s_curve"})
     comp.reset(_context(env), seed=1)
@@ -126,8 +116,8 @@ def test_episode_shapes_range_finite(cid: str) -> None:
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_two_axis_circle(cid: str) -> None:
-    comp = _fitted(cid)
+def test_two_axis_circle(cid: str, light: dict[str, dict[str, Any]]) -> None:
+    comp = _fitted(cid, light)
     spec = get_spec("fricbench/CircleContouring-v0")
     task = spec.task
     if comp.action_mode != task.action:
@@ -144,8 +134,8 @@ def test_two_axis_circle(cid: str) -> None:
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_nan_observation_rejected(cid: str) -> None:
-    comp = _fitted(cid)
+def test_nan_observation_rejected(cid: str, light: dict[str, dict[str, Any]]) -> None:
+    comp = _fitted(cid, light)
     env = _env(comp)
     obs, _ = env.reset(seed=0, options={"trajectory": "s_curve"})
     comp.reset(_context(env), seed=0)
@@ -156,8 +146,8 @@ def test_nan_observation_rejected(cid: str) -> None:
 
 
 @pytest.mark.parametrize("cid", _ids())
-def test_wrong_action_mode_rejected(cid: str) -> None:
-    comp = _fitted(cid)
+def test_wrong_action_mode_rejected(cid: str, light: dict[str, dict[str, Any]]) -> None:
+    comp = _fitted(cid, light)
     spec = get_spec(ENV)
     other = "offset" if comp.action_mode == "force" else "force"
     env = ServoAxisEnv(axis=spec.axis, task=replace(spec.task, action=other))
