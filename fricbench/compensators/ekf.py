@@ -72,7 +72,7 @@ from typing import ClassVar
 import numba
 import numpy as np
 
-from fricbench._validation import check_nonneg, check_positive
+from fricbench._validation import check_positive
 from fricbench.axis import Axis
 from fricbench.compensators.base import Compensator, CompensatorBatch, EpisodeContext
 from fricbench.compensators.kalman import ForceObserver, dob_model
@@ -576,22 +576,17 @@ class ExtendedFrictionObserver(ForceObserver):
                  level_std: float = 0.2,
                  level_time: float = 1.0, eps: float = 1.0e-4, gain: float = 1.0,
                  max_force: float | None = None) -> None:
-        super().__init__()
         check_positive("residual_bandwidth", residual_bandwidth, "rad/s")
         check_positive("residual_time", residual_time, "s")
         check_positive("level_std", level_std)
         check_positive("level_time", level_time, "s")
         check_positive("eps", eps, "m/s")
-        check_nonneg("gain", gain)
-        if max_force is not None:
-            check_positive("max_force", max_force, "N")
+        super().__init__(gain=gain, max_force=max_force)
         self.residual_bandwidth = residual_bandwidth
         self.residual_time = residual_time
         self.level_std = level_std
         self.level_time = level_time
         self.eps = eps
-        self.gain = gain
-        self.max_force = max_force
         self._k = 0
 
     def _covariances(self, axis: Axis, model: EKFModel) -> tuple[np.ndarray, np.ndarray]:

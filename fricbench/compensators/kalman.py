@@ -112,10 +112,19 @@ def observer_poles(axis: Axis, bandwidth: float) -> np.ndarray:
 
 
 class ForceObserver(Compensator):
-    """Base of the observers fed back as a force (``kalman``, ``ekf``): what they read from
-    the episode. Subclasses set ``max_force`` in their constructor."""
+    """Base of the observers fed back as a force (``kalman``, ``ekf``): the settings they
+    share (``gain``, the fraction of the estimate fed back; ``max_force``, its clip in N or
+    ``None`` for the env's ``action_scale``) and what they read from the episode."""
 
     max_force: float | None = None
+
+    def __init__(self, *, gain: float, max_force: float | None) -> None:
+        super().__init__()
+        check_nonneg("gain", gain)
+        if max_force is not None:
+            check_positive("max_force", max_force, "N")
+        self.gain = gain
+        self.max_force = max_force
     _xref: np.ndarray
     _cols: list[tuple[int, int]]
     _e_scale: float
@@ -173,14 +182,9 @@ class KalmanDisturbanceObserver(ForceObserver):
 
     def __init__(self, *, bandwidth: float = 1000.0, gain: float = 1.0,
                  max_force: float | None = None) -> None:
-        super().__init__()
         check_positive("bandwidth", bandwidth, "rad/s")
-        check_nonneg("gain", gain)
-        if max_force is not None:
-            check_positive("max_force", max_force, "N")
+        super().__init__(gain=gain, max_force=max_force)
         self.bandwidth = bandwidth
-        self.gain = gain
-        self.max_force = max_force
 
     @property
     def d_hat_(self) -> np.ndarray:
