@@ -32,12 +32,34 @@ from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
 from fricbench.compensators.training_data import env_setup
 from fricbench.gym.task import n_features
 
-__all__ = ["RLCompensator", "shipped_policy"]
+__all__ = ["RLCompensator", "load_policy_for", "shipped_policy"]
 
 
 def shipped_policy(comp_id: str) -> Path:
     """Path of the shipped policy JSON of ``comp_id`` (``fricbench/policies/<id>.json``)."""
     return Path(str(resources.files("fricbench").joinpath("policies", f"{comp_id}.json")))
+
+
+def load_policy_for(comp: Compensator, path: Path, env_id: str, *, algo: str | None = None
+                    ) -> tuple[NumpyPolicy, int]:
+    """The policy at ``path``, checked to be of ``algo`` (when given) and of ``comp``'s action
+    mode, and the number of observation features per axis of ``env_id``.
+
+    Raises
+    ------
+    CompensatorError
+        Naming the file, when it is missing or corrupt, from another algorithm or trained for
+        another action mode.
+    """
+    pol = load_policy(path)
+    spec = pol.spec
+    if algo is not None and spec.algo != algo:
+        raise CompensatorError(f"{path}: a {spec.algo!r} policy; {comp.id} expects {algo!r}")
+    if spec.action_mode != comp.action_mode:
+        raise CompensatorError(f"{path}: trained for {spec.action_mode!r} actions; {comp.id} "
+                               f"acts in {comp.action_mode!r} mode")
+    _, task = env_setup(env_id)
+    return pol, n_features(task.observation)
 
 
 class RLCompensator(Compensator):
@@ -89,16 +111,8 @@ class RLCompensator(Compensator):
             another observation layout or action mode.
         """
         path = self.policy_path
-        pol = load_policy(path)
+        pol, nf = load_policy_for(self, path, env_id, algo=self.algo)
         spec = pol.spec
-        if spec.algo != self.algo:
-            raise CompensatorError(f"{path}: a {spec.algo!r} policy; {self.id} expects "
-                                   f"{self.algo!r}")
-        if spec.action_mode != self.action_mode:
-            raise CompensatorError(f"{path}: trained for {spec.action_mode!r} actions; {self.id} "
-                                   f"acts in {self.action_mode!r} mode")
-        _, task = env_setup(env_id)
-        nf = n_features(task.observation)
         if spec.obs_dim != nf or spec.act_dim != 1:
             raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
                                    f"{env_id} has {nf} features and 1 action per axis")

@@ -47,8 +47,8 @@ from fricbench.compensators.base import (
     EpisodeContext,
 )
 from fricbench.compensators.residual_base import EpisodeObservers
-from fricbench.compensators.rl import shipped_policy
-from fricbench.compensators.rl_policy import NumpyPolicy, load_policy
+from fricbench.compensators.rl import load_policy_for, shipped_policy
+from fricbench.compensators.rl_policy import NumpyPolicy
 from fricbench.compensators.training_data import env_setup
 from fricbench.gym.task import n_features
 
@@ -126,14 +126,9 @@ class ResidualRLCompensator(Compensator):
             trained as a residual, or was built for another observation layout.
         """
         path = self.policy_path
-        pol = load_policy(path)
+        pol, nf = load_policy_for(self, path, env_id)
         spec = pol.spec
-        if spec.action_mode != self.action_mode:
-            raise CompensatorError(f"{path}: trained for {spec.action_mode!r} actions; {self.id} "
-                                   f"acts in {self.action_mode!r} mode")
         self.bandwidth_, self.gain_ = base_settings(spec.training, path)
-        _, task = env_setup(env_id)
-        nf = n_features(task.observation)
         if spec.obs_dim != nf + 1 or spec.act_dim != 1:
             raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
                                    f"{self.id} on {env_id} needs {nf + 1} features (the env's "
