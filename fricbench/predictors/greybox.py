@@ -147,7 +147,8 @@ class GreyBoxPredictor(Predictor):
         bounds = _joint_bounds(preps, b0)
         self._log(f"greybox: linear loop {linear.controller.to_dict()} "
                   f"({time.perf_counter() - t0:.1f} s)")
-        loop = friction_aware_loop(linear, preps[0], b0).controller
+        # the benchmark's axes run a P-PI cascade: the loop stays one
+        loop = friction_aware_loop(linear, preps[0], b0, pid=False).controller
         start = linear.copy(controller=loop, effects=("coulomb_friction",))
         start.plant[CL.I_FC] = 0.3 * bounds.force
         params = position_params(start, bounds, controller=True)

@@ -206,3 +206,49 @@ def test_a_run_without_effort_gives_a_cascade_twin(tmp_path: Path,
     q = axis.effects.quantization
     assert rms <= 1.2 * float(np.hypot(pos["rms_after"], q / np.sqrt(12.0))), (rms, pos)
     assert rms < 0.5 * pos["rms_before"], (rms, pos)
+
+
+def test_a_pid_loop_gives_a_linear_law_twin(tmp_path: Path,
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    """A PID drive logged without effort (the second simulator, independent of fricbench):
+    the diagnosis models it as a PID position loop, which the twin writes as the env's linear
+    law; replayed on the run's reference it gives the diagnosis's own free-run error."""
+    import sys
+
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import second_sim as S
+
+    case = S.draw_case("control", 8, law="pid", saturate=False, log_every=1, effort=None)
+    idx = case.index
+    run = tmp_path / "run.csv"
+    with open(run, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t", "x_ref", "x"])
+        for row in zip(case.trace.t[idx], case.trace.x_ref[idx], case.trace.y_log[idx],
+                       strict=True):
+            w.writerow([repr(float(v)) for v in row])
+    out = tmp_path / "pid.toml"
+    assert diagnose_main([str(run), "--json", str(tmp_path / "d.json"), "--env-out", str(out),
+                          "--env-id", "fricbench/PidTwin-v0", "--quiet"]) == EXIT_OK
+    report = json.loads((tmp_path / "d.json").read_text())
+    ctrl = tomllib.loads(out.read_text())["axis"]["controller"]
+    assert ctrl["law"] == "linear" and len(ctrl["law_recursion"]) == 2
+    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
+    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
+    monkeypatch.setenv("FRICBENCH_ENV_PATH", str(tmp_path))
+    before = set(gym.registry)
+    try:
+        register_envs()
+        replay = tmp_path / "replay.csv"
+        assert cli_main(["simulate", "--env", "fricbench/PidTwin-v0", "--reference-csv",
+                         str(run), "--position", "x", "--csv", str(replay)]) == 0
+    finally:
+        for env_id in set(gym.registry) - before:
+            del gym.registry[env_id]
+    with open(replay) as fh:
+        sim = np.array([float(r["x"]) for r in csv.DictReader(fh)])
+    measured = case.trace.y_log[idx]
+    rms = float(np.sqrt(np.mean((sim - measured) ** 2)))
+    pos = report["position"]
+    assert rms <= 1.2 * float(np.hypot(pos["rms_after"], case.floor)), (rms, pos)
+    assert rms < 0.5 * pos["rms_before"], (rms, pos)

@@ -88,6 +88,24 @@ def starting_controllers(ts: float) -> list[CascadeController]:
     return out
 
 
+def starting_pid_controllers(ts: float) -> list[CascadeController]:
+    """Standard starting PID position loops (:attr:`CascadeController.is_pid`): derivative
+    gains of 8, 25 and 60 % of the sampling rate, proportional gain 10 or 30 % of it, integral
+    1 or 4 % of its square, derivative unfiltered or through a filter of about 2 samples."""
+    out = []
+    for wv_ts, kp_frac, kpi_frac, pole in itertools.product(
+            (0.08, 0.25, 0.6), (0.1, 0.3), (0.01, 0.04), (0.0, 0.7)):
+        wv = wv_ts / ts
+        out.append(CascadeController(wv=wv, kp=kp_frac * wv, kvff=1.0, kpi=kpi_frac * wv * wv,
+                                     vel_pole=pole))
+    return out
+
+
+PID_MARGIN = 0.8
+"""A PID loop model replaces the cascade only when its fitted squared error is below this
+fraction of the cascade's (it has one more parameter; the simpler family is kept otherwise)."""
+
+
 def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
                        ) -> tuple[GreyBox, np.ndarray, Bounds, np.ndarray | None]:
     """Linear grey-box loop without effort: a cascade controller on a unit mass.
@@ -245,8 +263,8 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     return model, idim, bounds, min(ctrl.relerr_pct, law_relerr_floor(prep))
 
 
-def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15
-                        ) -> GreyBox:
+def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
+                        *, pid: bool = True) -> GreyBox:
     """The loop gains identified together with a Coulomb friction force.
 
     Without an effort, a linear fit hardly sees the feedback gains: with feedforward the
@@ -257,24 +275,43 @@ def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_ite
     the joint fit with the linear plant refitted - and is the base the candidate effects are
     judged against; whether friction itself belongs in the model is then judged like any
     other effect.
+
+    With ``pid`` (the default) the best standard PID position loop is refined too and
+    replaces the cascade when it fits clearly better (:data:`PID_MARGIN`): a drive whose PID
+    has complex P-PI roots or a filtered derivative is no cascade. Without it the loop stays
+    a cascade (the ``greybox`` predictor, which models the benchmark's cascade axes).
     """
     f0 = 0.3 * bounds.force
-    starts = [linear] + [linear.copy(controller=c) for c in starting_controllers(prep.ts)]
+    cascades = starting_controllers(prep.ts)
+    pids = starting_pid_controllers(prep.ts) if pid else []
+    starts = [linear] + [linear.copy(controller=c) for c in cascades + pids]
     starts = [m.copy(effects=("coulomb_friction",)) for m in starts]
     for m in starts:
         m.plant[CL.I_FC] = f0
     ys, _, status = simulate_models(starts, prep)
     sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
                     for y, s in zip(ys, status, strict=True)])
-    order = [0] + [int(i) for i in np.argsort(sse[1:])[:1] + 1]
+    # the linear loop, the best standard cascade and the best standard PID loop, refined
+    n_c = len(cascades)
+    order = [0, int(np.argmin(sse[1:1 + n_c])) + 1]
+    if pids:
+        order.append(int(np.argmin(sse[1 + n_c:])) + 1 + n_c)
     best = None
+    best_pid = None
     for i in order:
         if not np.isfinite(sse[i]):
             continue
         fit = PositionFit(prep, position_params(starts[i], bounds, controller=True))
         res = fit.run(starts[i], max_iter=max_iter)
-        if best is None or res.cost < best.cost:
+        if isinstance(res.model.controller, CascadeController) and res.model.controller.is_pid:
+            if best_pid is None or res.cost < best_pid.cost:
+                best_pid = res
+        elif best is None or res.cost < best.cost:
             best = res
+    # a PID position loop (integral on the position error, filtered derivative) when it fits
+    # clearly better: a cascade reaches only the PIDs with real P-PI gains and no filter
+    if best_pid is not None and (best is None or best_pid.cost < PID_MARGIN * best.cost):
+        best = best_pid
     if best is None:
         return linear
     loop = best.model.controller

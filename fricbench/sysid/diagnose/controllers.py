@@ -61,15 +61,24 @@ class LoopInputs:
 
 @dataclass(frozen=True)
 class CascadeController:
-    """Position P + feedforward, velocity PI, per unit mass.
+    """Position P + feedforward, velocity PI, per unit mass; or a PID position loop.
 
-    ``e_v = kp (x_r - x) + kvff v_r - (x[k] - x[k-1]) / ts``;
-    ``u = wv (e_v + I) + kaff a_r``; ``I[k+1] = I[k] + ts ki e_v[k]``.
+    ``e_v = kp (x_r - x) + d_f``, with ``d_f`` the velocity error
+    ``d = kvff v_r - (x[k] - x[k-1]) / ts`` through an optional first-order filter
+    (``d_f[k] = p d_f[k-1] + (1 - p) d[k]``, ``p`` = ``vel_pole``);
+    ``u = wv (e_v + I) + kaff a_r``; ``I[k+1] = I[k] + ts (ki e_v[k] + kpi (x_r[k] - x[k]))``.
+
+    With ``kpi = 0`` and no filter this is the industrial P-PI cascade. A PID position loop
+    ``u = P e + I_g int(e) + D de_f/dt`` (derivative through a first-order filter of time
+    constant ``T_f``, backward Euler, as drives and LinuxCNC's ``pid`` compute it) is the same
+    law with ``wv = D``, ``kp = P / D``, ``ki = 0``, ``kpi = I_g / D``, ``kvff = 1`` and
+    ``vel_pole = T_f / (T_f + ts)``; the cascade alone reaches only the PIDs with real
+    ``kp, ki`` (``P^2 >= 4 D I_g``) and no derivative filter.
 
     Parameters
     ----------
     wv : float
-        Velocity-loop gain over the mass, ``K_v K_t / M``, rad/s.
+        Velocity-loop gain over the mass, ``K_v K_t / M`` (a PID's ``D / M``), rad/s.
     kp : float
         Position gain, 1/s.
     ki : float
@@ -78,6 +87,10 @@ class CascadeController:
         Velocity feedforward fraction.
     kaff : float
         Acceleration feedforward fraction.
+    kpi : float
+        Integral rate of the position error, 1/s^2 (a PID's ``I_g / D``; 0 in a cascade).
+    vel_pole : float
+        Pole of the velocity-error filter, in [0, 1) (0: no filter).
     """
 
     wv: float
@@ -85,10 +98,19 @@ class CascadeController:
     ki: float = 0.0
     kvff: float = 0.0
     kaff: float = 0.0
+    kpi: float = 0.0
+    vel_pole: float = 0.0
+
+    @property
+    def is_pid(self) -> bool:
+        """Whether the law is of the PID family (a position-error integral)."""
+        return self.kpi > 0.0
 
     def arx(self, inp: LoopInputs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                               np.ndarray]:
         """Difference-equation form: ``(a, c, r, u_init, y_init)`` for the simulator."""
+        if self.kpi != 0.0 or self.vel_pole != 0.0:
+            return self._arx_general(inp)
         ts = inp.ts
         alpha = 1.0 - ts * self.ki
         ref_e = self.kp * inp.xr + self.kvff * inp.vr
@@ -105,10 +127,81 @@ class CascadeController:
         u_init = np.array([self.wv * e_prev + inp.u0])
         return a, c, r, u_init, y_init
 
+    def difference_form(self, ts: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The general law as ``u[k] = sum_i a_i u[k-i] + sum_j (c_j x[k-j] + t_j x_r[k-j])``.
+
+        With ``F = 1 - p z^-1`` (the filter) and ``A = 1 - (1 - ts ki) z^-1`` (the PI), the law
+        times ``(1 - z^-1) F`` reads
+        ``U (1 - z^-1) F = wv [(kp F A + ts kpi z^-1 F) E + (1 - p) A D]
+        + kaff (1 - z^-1) F A_r``
+        with ``E = X_r - X``, ``D = (kvff (1 - z^-1) X_r - (1 - z^-1) X) / ts`` and the reference
+        acceleration ``A_r = (1 - z^-1)^2 X_r / ts^2``: the reference's velocity and
+        acceleration as backward differences of its position, as a drive computes them, so
+        that the law is a filter of the reference position alone (an env's linear law holds
+        it exactly). Returns ``a`` (2), ``c`` (3) and ``t`` (5 taps).
+        """
+        p = self.vel_pole
+        filt = np.array([1.0, -p])
+        pi = np.array([1.0, -(1.0 - ts * self.ki)])
+        diff = np.array([1.0, -1.0])
+        on_e = self.wv * (self.kp * np.convolve(filt, pi)
+                          + ts * self.kpi * np.concatenate([[0.0], filt]))
+        on_d = np.convolve(self.wv * (1.0 - p) * pi, diff) / ts
+        c = -(on_e + on_d)
+        t = np.zeros(5)
+        t[:3] += on_e + self.kvff * on_d
+        # the feedforward of A_r is not integrated: (1 - z^-1) F (1 - z^-1)^2 / ts^2
+        t += self.kaff * np.convolve(np.convolve(diff, np.convolve(diff, diff)), filt) / (ts * ts)
+        return np.array([1.0 + p, -p]), c, t
+
+    def _arx_general(self, inp: LoopInputs) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                      np.ndarray, np.ndarray]:
+        """:meth:`arx` with the position integral and the velocity filter
+        (:meth:`difference_form`)."""
+        ts = inp.ts
+        a, c, t = self.difference_form(ts)
+        # the reference before the run: at constant velocity
+        n = inp.t.shape[0]
+        lag = t.shape[0] - 1
+        back = np.arange(lag, 0, -1)
+        xr = np.concatenate([inp.xr[0] - back * inp.vr[0] * ts, inp.xr])
+        r = np.zeros(n)
+        for j in range(lag + 1):
+            # tap j multiplies the sample k - j
+            r += t[j] * xr[lag - j: lag - j + n]
+        y_init = inp.history(3)
+        # the two efforts before the run, at constant velocity (the filter settled, no
+        # reference acceleration): the integral reaches u0 at the first sample, so one and two
+        # of its updates less before
+
+        def errors(j: int) -> tuple[float, float]:
+            e = inp.xr[0] - j * inp.vr[0] * ts - y_init[j - 1]
+            return e, (self.kp * e + self.kvff * inp.vr[0] - (y_init[j - 1] - y_init[j]) / ts)
+
+        (e1, ev1), (e2, ev2) = errors(1), errors(2)
+        step1 = ts * (self.ki * ev1 + self.kpi * e1)
+        step2 = ts * (self.ki * ev2 + self.kpi * e2)
+        u_init = np.array([self.wv * (ev1 - step1) + inp.u0,
+                           self.wv * (ev2 - step1 - step2) + inp.u0])
+        return a, c, r, u_init, y_init
+
     def to_dict(self) -> dict[str, float]:
         """JSON-ready parameters with units in the keys."""
-        return {"wv_rad_s": self.wv, "kp_1_s": self.kp, "ki_1_s": self.ki,
-                "kvff": self.kvff, "kaff": self.kaff}
+        out = {"wv_rad_s": self.wv, "kp_1_s": self.kp, "ki_1_s": self.ki,
+               "kvff": self.kvff, "kaff": self.kaff}
+        if self.is_pid or self.vel_pole != 0.0:
+            out.update({"kpi_1_s2": self.kpi, "vel_pole": self.vel_pole})
+        return out
+
+    def pid_gains(self, ts: float) -> dict[str, float]:
+        """The PID position loop this law is (per unit mass), when ``ki`` is 0.
+
+        Returns ``P`` (1/s^2), ``I`` (1/s^3), ``D`` (1/s) and the derivative filter's time
+        constant ``T_f`` (s) of ``u = P e + I int(e) + D de_f/dt``.
+        """
+        p = self.vel_pole
+        return {"p_1_s2": self.wv * self.kp, "i_1_s3": self.wv * self.kpi, "d_1_s": self.wv,
+                "tf_s": ts * p / (1.0 - p) if p < 1.0 else math.inf}
 
     def with_values(self, **changes: float) -> CascadeController:
         """A copy with some parameters changed."""

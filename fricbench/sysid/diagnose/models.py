@@ -43,6 +43,10 @@ class NoStartError(ValueError):
 KI_MIN_RATIO = 0.02
 """Smallest integral rate of the cascade model, as a fraction of the velocity-loop gain."""
 
+PID_KPI_MIN_RATIO = 1.0e-3
+"""Smallest position-error integral of the PID model, as a fraction of ``wv^2`` (it stays a
+PID: an integral action that vanished would let friction imitate backlash)."""
+
 _DIVERGED = 1.0e3  # residual (in noise-floor units) given to samples of a diverged simulation
 
 
@@ -210,12 +214,30 @@ def position_params(model: GreyBox, b: Bounds, *, controller: bool,
                    "kvff": (c.kvff - d, c.kvff + d), "kaff": (c.kaff - d, c.kaff + d)}
             lim = {k: (max(lim[k][0], box[k][0]), min(lim[k][1], box[k][1])) for k in lim}
         lim["ki"] = (max(lim["ki"][0], min(ki_min_ratio, 0.25)), lim["ki"][1])
+        if c.is_pid:
+            # a PID position loop: its integral acts on the position error (kpi, up to
+            # 2 wv^2: beyond P D an integral destabilises the loop) and its derivative
+            # through a filter of up to 20 samples (a pole of 0.95); no velocity-loop integral
+            rpi = c.kpi / c.wv**2
+            lim["kpi"] = (PID_KPI_MIN_RATIO, 2.0)
+            lim["vel_pole"] = (0.0, 0.95)
+            if controller_box is not None:
+                f = float(controller_box)
+                d = 0.1 * (f - 1.0)
+                lim["kpi"] = (max(lim["kpi"][0], rpi / f), min(lim["kpi"][1], rpi * f))
+                lim["vel_pole"] = (max(0.0, c.vel_pole - d), min(0.95, c.vel_pole + d))
         lim = {k: (lo, hi) if hi > lo else (lo, lo * (1 + 1e-9) + 1e-12)
                for k, (lo, hi) in lim.items()}
         out += [
             Param("wv", True, *lim["wv"], 1.0),
             Param("kp_per_wv", True, *lim["kp"], 1.0),
-            Param("ki_per_wv", False, *lim["ki"], 0.05),
+        ]
+        if c.is_pid:
+            out += [Param("kpi_per_wv2", True, *lim["kpi"], 1.0),
+                    Param("vel_pole", False, *lim["vel_pole"], 0.2)]
+        else:
+            out.append(Param("ki_per_wv", False, *lim["ki"], 0.05))
+        out += [
             Param("kvff", False, *lim["kvff"], 0.5),
             Param("kaff", False, *lim["kaff"], 0.5),
         ]
@@ -244,6 +266,9 @@ def _with_values(model: GreyBox, params: Sequence[Param], values: Sequence[float
             ratio = ctrl_changes.pop(f"{key}_per_wv", None)
             if ratio is not None:
                 ctrl_changes[key] = ratio * wv
+        ratio = ctrl_changes.pop("kpi_per_wv2", None)
+        if ratio is not None:
+            ctrl_changes["kpi"] = ratio * wv * wv
         ctrl = ctrl.with_values(**ctrl_changes)
     return model.copy(controller=ctrl, plant=plant)
 

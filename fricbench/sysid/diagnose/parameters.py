@@ -44,6 +44,9 @@ class Param:
         """Physical value in ``model``."""
         if isinstance(self.target, str):
             ctrl = model.controller
+            if self.target.endswith("_per_wv2"):
+                wv = float(ctrl.wv)  # type: ignore[union-attr]
+                return float(getattr(ctrl, self.target[:-8])) / (wv * wv)
             if self.target.endswith("_per_wv"):
                 return float(getattr(ctrl, self.target[:-7])) / float(ctrl.wv)  # type: ignore
             return float(getattr(ctrl, self.target))

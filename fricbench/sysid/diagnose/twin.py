@@ -20,7 +20,8 @@ What goes where:
 * the controller: a law identified from the effort (ARX) becomes ``law = "linear"``, its
   look-ahead taps on the reference folded into gains on the reference position, velocity and
   acceleration (exact for a reference of constant acceleration over the look-ahead), its past
-  taps kept; a cascade fitted to the position becomes the env's cascade;
+  taps kept; a cascade fitted to the position becomes the env's cascade, a PID position loop
+  the env's linear law (its difference equation, exact);
 * the task: the standard trajectories scaled to the run's stroke, feed and acceleration, and
   the observation and reward scaled to its tracking error, speeds and forces.
 
@@ -154,6 +155,16 @@ def _controller(ctrl: ArxController | CascadeController, *, ts: float, n_sub: in
                 "law_reference_history": past,
                 "law_position": [float(v) for v in ctrl.c],
                 "law_recursion": [float(v) for v in ctrl.a]}
+    if ctrl.is_pid or ctrl.vel_pole != 0.0:
+        # a PID position loop is no env cascade: its difference equation (a filter of the
+        # reference position alone) is the env's linear law, per unit mass times the mass (a
+        # force, N, at kt = 1 N/A)
+        a, c, t = ctrl.difference_form(ts)
+        return {**base, "kt": 1.0, "law": "linear",
+                "law_reference": [float(mass_si * t[0]), 0.0, 0.0],
+                "law_reference_history": [float(mass_si * v) for v in t[1:]],
+                "law_position": [float(mass_si * v) for v in c],
+                "law_recursion": [float(v) for v in a]}
     # u = wv (e_v + I) per unit mass: the env's i = kv (e_v + I) with kt = 1 N/A
     return {**base, "kt": 1.0, "kp": ctrl.kp, "kvff": ctrl.kvff, "kaff": ctrl.kaff,
             "kv": ctrl.wv * mass_si, "ti": (1.0 / ctrl.ki) if ctrl.ki > 0 else 0.0}

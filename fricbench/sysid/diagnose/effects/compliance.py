@@ -297,7 +297,10 @@ class Compliance(Effect):
         sought under the standard starting loops too, and refined with the loop free on
         ``mask`` (the search judges it on the other samples).
         """
-        from fricbench.sysid.diagnose.baselines import starting_controllers
+        from fricbench.sysid.diagnose.baselines import (
+            starting_controllers,
+            starting_pid_controllers,
+        )
         from fricbench.sysid.diagnose.controllers import CascadeController
         from fricbench.sysid.diagnose.models import PositionFit, position_params
 
@@ -310,7 +313,12 @@ class Compliance(Effect):
             freqs = list(np.geomspace(max(lo, 2.0), 0.5 * hi, 4))
         sides = ((1.0, 0.0),) if prep.x_load is not None else ((1.0, 0.0), (0.0, 1.0))
         cascade = isinstance(model.controller, CascadeController)
-        loops = [model.controller] + (starting_controllers(prep.ts) if cascade else [])
+        # the standard loops of the model's own family (a PID model stays a PID)
+        ctrl = model.controller
+        standard = (starting_pid_controllers
+                    if isinstance(ctrl, CascadeController) and ctrl.is_pid
+                    else starting_controllers)
+        loops = [model.controller] + (standard(prep.ts) if cascade else [])
         rows = []
         for f in freqs[:3]:
             for ratio in START_RATIOS:
