@@ -80,6 +80,7 @@ N_PARAMS = P_LAW_G + LAW_NR_MAX
 
 # -- state vector layout (columns of S): the plant's state, then the cascade's ---------------------
 S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV = PL.S_X, PL.S_V, PL.S_XPLAY, PL.S_Z, PL.S_DEF, PL.S_DEFV
+S_HEAT = PL.S_HEAT
 S_I, S_XFB, S_XFB_PREV, S_T, S_XMEAS, S_OFF_PREV, S_IAPP = range(PL.N_PLANT_STATE,
                                                                  PL.N_PLANT_STATE + 7)
 S_DBUF = PL.N_PLANT_STATE + 7
@@ -102,7 +103,7 @@ RUNAWAY_POSITION = 1.0e3  # m
 def _measure(p: np.ndarray, s: np.ndarray, noise: float) -> None:
     """Take a new sensor reading into state ``s`` (used at reset)."""
     c = PL.constants(p)
-    fb, logged = PL.sense(c, s[S_X], s[S_XPLAY], s[S_DEF], s[S_T], c.noise * noise)
+    fb, logged = PL.sense(c, s[S_X], s[S_XPLAY], s[S_DEF], s[S_HEAT], s[S_T], c.noise * noise)
     s[S_XFB_PREV] = s[S_XFB]
     s[S_XFB] = fb
     s[S_XMEAS] = logged
@@ -144,6 +145,7 @@ def advance_axis_with(c: PL.Plant, n: int, P: np.ndarray, S: np.ndarray, xr: np.
     kp, kvff, kaff, kv, ti = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI]
     ki = ts / ti if ti > 0.0 else 0.0
     x, v, x_play, z, d, dv = s[S_X], s[S_V], s[S_XPLAY], s[S_Z], s[S_DEF], s[S_DEFV]
+    theta = s[S_HEAT]
     integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
     x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
     law = p[P_LAW] > 0.5
@@ -203,7 +205,8 @@ def advance_axis_with(c: PL.Plant, n: int, P: np.ndarray, S: np.ndarray, xr: np.
                 integ += ki * e_v
         f_motor = kt * i_app
         # -- plant: mechanics over n_sub substeps ---------------------------------------
-        x, v, z, x_play, d, dv, f_fric = PL.advance(c, x, v, z, x_play, d, dv, f_motor)
+        x, v, z, x_play, d, dv, theta, f_fric = PL.advance(c, x, v, z, x_play, d, dv, theta,
+                                                           f_motor)
         t += ts
         force[n, k] = f_motor
         friction[n, k] = f_fric
@@ -215,8 +218,9 @@ def advance_axis_with(c: PL.Plant, n: int, P: np.ndarray, S: np.ndarray, xr: np.
             break
         # -- plant: sensor reading for the next sample -----------------------------------
         x_fb_prev = x_fb
-        x_fb, x_logged = PL.sense(c, x, x_play, d, t, c.noise * noise[n, k])
+        x_fb, x_logged = PL.sense(c, x, x_play, d, theta, t, c.noise * noise[n, k])
     s[S_X], s[S_V], s[S_XPLAY], s[S_Z], s[S_DEF], s[S_DEFV] = x, v, x_play, z, d, dv
+    s[S_HEAT] = theta
     s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t
     s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP] = x_logged, off_prev, i_app
 

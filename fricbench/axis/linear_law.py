@@ -51,12 +51,13 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
     play = x0
     d = 0.0
     dv = 0.0
+    theta = 0.0
     for k in range(n):
-        y_fb, y_k = PL.sense(pc, x, play, d, t[k], noise[k])
+        y_fb, y_k = PL.sense(pc, x, play, d, theta, t[k], noise[k])
         y_out[k] = y_k
         # the other encoder: the motor's when the table is logged, else the table's
         if pc.log_motor:
-            y2_out[k] = PL.load_position(pc, play, d, t[k]) + noise[k]
+            y2_out[k] = PL.load_position(pc, play, d, theta, t[k]) + noise[k]
         else:
             y2_out[k] = x + noise[k]
         for j in range(nc - 1, 0, -1):
@@ -81,7 +82,8 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
             uh[0] = u
         u_out[k] = u
         u_app, _ = PL.actuate(pc, buf, 0, u)
-        x, v, z, play, d, dv, _ = PL.advance(pc, x, v, z, play, d, dv, pc.kt * u_app)
+        x, v, z, play, d, dv, theta, _ = PL.advance(pc, x, v, z, play, d, dv, theta,
+                                                    pc.kt * u_app)
         if not (math.isfinite(x) and math.isfinite(d) and abs(v) < DIVERGED_SPEED):
             for kk in range(k + 1, n):
                 y_out[kk] = np.nan

@@ -171,10 +171,16 @@ class Effects:
     friction_variation_phase : float
         Its phase, rad.
     thermal_drift : float
-        Final thermal growth of the table position relative to the motor, m
-        (``d(t) = d_inf (1 - exp(-t/tau))``; seen when measuring on the motor side).
+        Thermal growth of the table position relative to the motor, m: the final growth
+        ``d_inf`` of ``d(t) = d_inf (1 - exp(-t/tau))``, or with a heating speed the growth in
+        sustained motion at that speed (seen when measuring on the motor side).
     thermal_time_constant : float
         Its time constant ``tau``, s.
+    thermal_heating_speed : float
+        Motor speed ``v_heat`` that heats the axis to its growth ``thermal_drift``, m/s; 0 (the
+        default) makes the drift a function of time. Above 0 the drift is driven by motion: a
+        normalised temperature follows ``tau dtheta/dt = |v_motor| / v_heat - theta`` from 0
+        at the start of a run, the drift is ``thermal_drift * theta`` and relaxes at rest.
     quantization : float
         Encoder step, m (0: ideal).
     noise_std : float
@@ -212,6 +218,7 @@ class Effects:
     friction_variation_phase: float = 0.0
     thermal_drift: float = 0.0
     thermal_time_constant: float = 600.0
+    thermal_heating_speed: float = 0.0
     quantization: float = 0.0
     noise_std: float = 0.0
     delay_samples: int = 0
@@ -235,6 +242,7 @@ class Effects:
         check_finite("friction_variation_phase", self.friction_variation_phase)
         check_range("thermal_drift", self.thermal_drift, -1e-3, 1e-3, "m")
         check_positive("thermal_time_constant", self.thermal_time_constant, "s")
+        check_nonneg("thermal_heating_speed", self.thermal_heating_speed, "m/s")
         check_range("quantization", self.quantization, 0.0, 1e-4, "m")
         check_range("noise_std", self.noise_std, 0.0, 1e-4, "m")
         check_int("delay_samples", self.delay_samples, 0, K.DELAY_MAX)
@@ -402,6 +410,7 @@ class Axis:
         p[K.P_PD_PERIOD] = e.friction_variation_period
         p[K.P_TH_AMP] = e.thermal_drift
         p[K.P_TH_TAU] = e.thermal_time_constant
+        p[PL.TH_VHEAT] = e.thermal_heating_speed
         p[K.P_QUANT] = e.quantization
         p[K.P_NOISE] = e.noise_std
         p[K.P_DELAY] = e.delay_samples

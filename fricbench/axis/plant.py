@@ -13,7 +13,7 @@ One sample of period ``Ts`` (zero-order hold on the actuator command)::
     i_app  = sat_imax(i_cmd[k - d])                                   delay d, saturation
     M dv/dt = Kt i_app - (B + fv_dir) v - F_f(x, v) - f0 - F_cog(x)    n_sub substeps
     y_fb   = Q(x or x_table) + n ,  y = Q(x_table or x) + n            sensor
-    x_table = play_beta(x) + delta + d_inf (1 - exp(-t / tau))         backlash, compliance,
+    x_table = play_beta(x) + delta + d_th                              backlash, compliance,
                                                                        thermal drift
 
 with the friction level in the direction ``sigma = sgn(v)``, scaled along the stroke::
@@ -26,6 +26,16 @@ with the friction level in the direction ``sigma = sgn(v)``, scaled along the st
 
 Static laws use the implicit update of Kikuuwe et al. (2005), so that stiction holds exactly;
 LuGre and Dahl integrate their bristle state exactly for a velocity frozen over a substep.
+
+Thermal drift ``d_th`` (off while ``d_inf`` is 0) follows one of two laws. With the heating
+speed ``v_heat`` at 0 it is a function of time, ``d_th = d_inf (1 - exp(-t / tau))``. With
+``v_heat > 0`` it is driven by motion (a ball screw heated by turning): a normalised temperature
+``theta`` (state ``S_HEAT``, 0 at the start of a run) follows::
+
+    tau dtheta/dt = |v_M| / v_heat - theta ,   d_th = d_inf theta
+
+integrated exactly for the motor speed frozen over each substep (the mean of its ends), so
+``d_inf`` is the growth in sustained motion at ``v_heat`` and the drift relaxes at rest.
 
 Compliance (off while the load fraction ``r`` is 0): the mass ``M`` splits into a motor side
 ``m_M = (1 - r) M`` (rotor, screw; the actuator force, the friction, the damping ``B``, the
@@ -54,7 +64,8 @@ Everything is in one consistent set of units: SI for the environments; the diagn
 an effort unit for forces (``Kt = 1``) or a unit mass (forces become accelerations). A second
 (compliant) mass adds its columns (``compliance_*``, ``log_motor``) and state entries
 (``S_DEF``, ``S_DEFV``) here, and a second branch in :func:`advance`; the drivers only carry the
-state along.
+state along. The motion-driven thermal drift does the same with one column
+(``thermal_heating_speed``, last in the row) and one state entry (``S_HEAT``).
 """
 
 from __future__ import annotations
@@ -81,23 +92,26 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 (TS, NSUB, M, B, KT, IMAX, DELAY, FKIND, FC, DFC, FS_EXCESS, VS, DELTA, FV, DB, SIGMA0, SIGMA1,
  OFFSET, COG_SIN, COG_COS, COG_PERIOD, PD_GRAD, PD_SIN, PD_COS, PD_PERIOD, PD_CENTER,
  BACKLASH, TH_AMP, TH_TAU, QUANT, NOISE, MEAS_TABLE, COMP_RATIO, COMP_FREQ, COMP_ZETA,
- LOG_MOTOR) = range(36)
-N_PLANT = 36
+ LOG_MOTOR, TH_VHEAT) = range(37)
+N_PLANT = 37
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
     "cog_sin", "cog_cos", "cog_period", "pd_gradient", "pd_sin", "pd_cos", "pd_period",
     "pd_center", "backlash", "thermal_amplitude", "thermal_tau", "quantization", "noise_std",
     "measure_table", "compliance_load_fraction", "compliance_frequency", "compliance_damping",
-    "log_motor",
+    "log_motor", "thermal_heating_speed",
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
 :func:`pad_row`)."""
+N_PLANT_COMPLIANT = 36
+"""Length of the plant row before the motion-driven thermal drift (padded by
+:func:`pad_row`)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
-S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV = 0, 1, 2, 3, 4, 5
-N_PLANT_STATE = 6
+S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV, S_HEAT = 0, 1, 2, 3, 4, 5, 6
+N_PLANT_STATE = 7
 DELAY_MAX = 16
 
 
@@ -139,19 +153,21 @@ def default_row(mass: float = 1.0, damping: float = 0.0, ts: float = 1.0e-3,
 
 
 def pad_row(row: np.ndarray) -> np.ndarray:
-    """A plant row of the current layout from one of the rigid layout (32 entries).
+    """A plant row of the current layout from one of an earlier layout.
 
-    The new entries (compliance, the logged side) are appended off, so an older row keeps its
-    meaning; a row of the current length is returned as a copy.
+    Rows of the rigid layout (32 entries) and of the compliant one (36 entries) are accepted:
+    the entries added since (compliance, the logged side, the thermal heating speed) are
+    appended off, so an older row keeps its meaning; a row of the current length is returned
+    as a copy.
     """
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
-    if r.shape != (N_PLANT_RIGID,):
-        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_RIGID}) entries, "
-                         f"got shape {r.shape}")
+    if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT):
+        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_COMPLIANT} or "
+                         f"{N_PLANT_RIGID}) entries, got shape {r.shape}")
     out = default_row()
-    out[:N_PLANT_RIGID] = r
+    out[:r.shape[0]] = r
     return out
 
 
@@ -266,6 +282,9 @@ class Plant(NamedTuple):
     x_dv: float
     x_g: float
     log_motor: bool
+    heat: bool  # motion-driven thermal drift (v_heat > 0)
+    inv_vheat: float
+    th_gain: float  # 1 - exp(-h / tau): theta's exact step towards |v| / v_heat
 
 
 def constants(p: np.ndarray) -> Plant:
@@ -302,13 +321,16 @@ def constants(p: np.ndarray) -> Plant:
     cog_k = 2.0 * math.pi / p[COG_PERIOD] if cog_on else 0.0
     pd_on = (p[PD_SIN] != 0.0 or p[PD_COS] != 0.0) and p[PD_PERIOD] != 0.0
     pd_k = 2.0 * math.pi / p[PD_PERIOD] if pd_on else 0.0
+    heat = p[TH_VHEAT] > 0.0
+    inv_vheat = 1.0 / p[TH_VHEAT] if heat else 0.0
+    th_gain = -math.expm1(-h / p[TH_TAU]) if heat else 0.0
     return Plant(h, n_sub, m, b_impl, p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
                  p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
                  p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS], cog_k, p[PD_GRAD],
                  p[PD_SIN], p[PD_COS], pd_k, p[PD_CENTER], p[BACKLASH], p[TH_AMP], p[TH_TAU],
                  p[QUANT], p[NOISE], p[MEAS_TABLE] > 0.5, m_eff, comp, cc[0], cc[1], cc[2],
                  cc[3], cc[4], cc[5], cc[6], cc[7], cc[8], cc[9], cc[10], cc[11], cc[12],
-                 cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5)
+                 cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5, heat, inv_vheat, th_gain)
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -440,12 +462,15 @@ def _compliant_substep(c: Plant, x: float, v: float, z: float, d: float, dv: flo
 
 
 def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv: float,
-            f_motor: float) -> tuple[float, float, float, float, float, float, float]:
+            theta: float, f_motor: float
+            ) -> tuple[float, float, float, float, float, float, float, float]:
     """Advance the mechanics over one sample (``n_sub`` substeps, zero-order hold on the force).
 
-    Returns ``(x, v, z, x_play, d, dv, F_f)``: motor position and velocity, bristle state, the
-    position after the transmission's play, the compliant deflection ``x_L - x_M`` and its rate
-    (0 on a rigid axis), and the mean friction force over the sample.
+    Returns ``(x, v, z, x_play, d, dv, theta, F_f)``: motor position and velocity, bristle
+    state, the position after the transmission's play, the compliant deflection ``x_L - x_M``
+    and its rate (0 on a rigid axis), the normalised temperature of a motion-driven thermal
+    drift (unchanged when the drift is time-driven), and the mean friction force over the
+    sample.
     """
     h = c.h
     f_sum = 0.0
@@ -457,6 +482,9 @@ def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv:
             v_new, z, f_fric = _mechanics(c, x, v, z, f_ext)
             # trapezoidal position: exact when the velocity changes linearly over h
             x += 0.5 * h * (v + v_new)
+        if c.heat:
+            # tau dtheta/dt = |v| / v_heat - theta, exact for the mean speed held over h
+            theta += (0.5 * (abs(v) + abs(v_new)) * c.inv_vheat - theta) * c.th_gain
         v = v_new
         f_sum += f_fric
         if c.backlash > 0.0:
@@ -467,21 +495,31 @@ def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv:
                 x_play = x + 0.5 * c.backlash
         else:
             x_play = x
-    return x, v, z, x_play, d, dv, f_sum / c.n_sub
+    return x, v, z, x_play, d, dv, theta, f_sum / c.n_sub
 
 
-def sense(c: Plant, x_motor: float, x_play: float, d: float, t: float,
+def thermal_drift(c: Plant, theta: float, t: float) -> float:
+    """Thermal growth of the table position: of the temperature ``theta``, or of time ``t``."""
+    drift = 0.0
+    if c.th_amp != 0.0:
+        if c.heat:
+            # d = d_inf theta
+            drift = c.th_amp * theta
+        else:
+            # d(t) = d_inf (1 - exp(-t / tau))
+            drift = c.th_amp * (1.0 - math.exp(-t / c.th_tau))
+    return drift
+
+
+def sense(c: Plant, x_motor: float, x_play: float, d: float, theta: float, t: float,
           noise: float) -> tuple[float, float]:
     """Feedback reading and logged reading at time ``t``; ``noise`` in position units.
 
-    The table (load) side is ``x_play + d`` plus the thermal drift; the logged reading is the
-    table's, or the motor's when the row logs the motor encoder (``log_motor``).
+    The table (load) side is ``x_play + d`` plus the thermal drift (of the temperature
+    ``theta`` or of ``t``); the logged reading is the table's, or the motor's when the row logs
+    the motor encoder (``log_motor``).
     """
-    drift = 0.0
-    if c.th_amp != 0.0:
-        # d(t) = d_inf (1 - exp(-t / tau))
-        drift = c.th_amp * (1.0 - math.exp(-t / c.th_tau))
-    x_table = x_play + d + drift
+    x_table = x_play + d + thermal_drift(c, theta, t)
     x_sensor = x_table if c.meas_table else x_motor
     x_log = x_motor if c.log_motor else x_table
     q = c.quant
@@ -491,12 +529,9 @@ def sense(c: Plant, x_motor: float, x_play: float, d: float, t: float,
     return x_sensor + noise, x_log + noise
 
 
-def load_position(c: Plant, x_play: float, d: float, t: float) -> float:
+def load_position(c: Plant, x_play: float, d: float, theta: float, t: float) -> float:
     """True (noise-free) table position at time ``t``: play, deflection and thermal drift."""
-    drift = 0.0
-    if c.th_amp != 0.0:
-        drift = c.th_amp * (1.0 - math.exp(-t / c.th_tau))
-    return x_play + d + drift
+    return x_play + d + thermal_drift(c, theta, t)
 
 
 def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
@@ -523,6 +558,7 @@ _mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechani
 actuate = numba.njit(cache=True, inline="always")(actuate)
 _compliant_substep = numba.njit(cache=True, fastmath=FASTMATH)(_compliant_substep)
 advance = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance)
+thermal_drift = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(thermal_drift)
 sense = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(sense)
 load_position = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(load_position)
 _sliding_force = numba.njit(cache=True)(_sliding_force)
@@ -553,12 +589,15 @@ def sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 __all__ = [
-    "DELAY_MAX", "FASTMATH", "N_PLANT", "N_PLANT_RIGID", "N_PLANT_STATE", "PLANT_NAMES", "Plant",
+    "DELAY_MAX", "FASTMATH", "N_PLANT", "N_PLANT_COMPLIANT", "N_PLANT_RIGID", "N_PLANT_STATE",
+    "PLANT_NAMES", "Plant",
     "actuate", "advance", "compliance_constants", "constants", "default_row", "friction_scale",
     "levels", "load_position", "pad_row", "position_force", "sense", "sliding_force",
+    "thermal_drift",
     "TS", "NSUB", "M", "B", "KT", "IMAX", "DELAY", "FKIND", "FC", "DFC", "FS_EXCESS", "VS",
     "DELTA", "FV", "DB", "SIGMA0", "SIGMA1", "OFFSET", "COG_SIN", "COG_COS", "COG_PERIOD",
     "PD_GRAD", "PD_SIN", "PD_COS", "PD_PERIOD", "PD_CENTER", "BACKLASH", "TH_AMP", "TH_TAU",
     "QUANT", "NOISE", "MEAS_TABLE", "COMP_RATIO", "COMP_FREQ", "COMP_ZETA", "LOG_MOTOR",
-    "S_X", "S_V", "S_XPLAY", "S_Z", "S_DEF", "S_DEFV", "KIND_STATIC", "KIND_LUGRE", "KIND_DAHL",
+    "TH_VHEAT", "S_X", "S_V", "S_XPLAY", "S_Z", "S_DEF", "S_DEFV", "S_HEAT", "KIND_STATIC",
+    "KIND_LUGRE", "KIND_DAHL",
 ]

@@ -70,10 +70,12 @@ def loop_inputs(x_ref: np.ndarray, ts: float) -> LoopInputs:
 
 
 def _plant_size(state: dict[str, torch.Tensor]) -> int:
-    """Stored plant-row length: the shared plant's, or the 19 or 32 entries of earlier files."""
+    """Stored plant-row length: the shared plant's, or the 19, 32 or 36 entries of earlier
+    files."""
     stored = state.get("plant_")
     if stored is not None and tuple(stored.shape) in ((CL.LEGACY_N_PLANT,),
-                                                      (PL.N_PLANT_RIGID,)):
+                                                      (PL.N_PLANT_RIGID,),
+                                                      (PL.N_PLANT_COMPLIANT,)):
         return int(stored.shape[0])
     return CL.N_PLANT
 
@@ -206,7 +208,7 @@ class GreyBoxPredictor(Predictor):
         if plant.shape[0] == CL.LEGACY_N_PLANT:
             plant = CL.from_legacy_row(plant)
         elif plant.shape[0] != CL.N_PLANT:
-            # a row of the rigid plant, before compliance was appended
+            # a row of an earlier layout (before compliance or the heating speed was appended)
             plant = PL.pad_row(plant)
         # an unlimited actuator is the one infinite entry a plant row may hold
         limits = plant[PL.IMAX]

@@ -167,5 +167,5 @@ def test_rigid_rows_are_padded() -> None:
     old = PL.default_row(3.0)[:PL.N_PLANT_RIGID]
     row = PL.pad_row(old)
     assert row.shape == (PL.N_PLANT,) and row[PL.COMP_RATIO] == 0.0
-    with pytest.raises(ValueError, match="expected a plant row of 36"):
+    with pytest.raises(ValueError, match=f"expected a plant row of {PL.N_PLANT}"):
         PL.pad_row(np.zeros(5))
