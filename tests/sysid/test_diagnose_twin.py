@@ -252,3 +252,23 @@ def test_a_pid_loop_gives_a_linear_law_twin(tmp_path: Path,
     pos = report["position"]
     assert rms <= 1.2 * float(np.hypot(pos["rms_after"], case.floor)), (rms, pos)
     assert rms < 0.5 * pos["rms_before"], (rms, pos)
+
+
+@pytest.mark.parametrize("v_heat", [0.0, 0.012])
+def test_thermal_law_survives_into_the_twin(v_heat: float) -> None:
+    """A diagnosed drift keeps its law: the heating speed (0: of time) is written and packed."""
+    from fricbench.axis import Axis
+    from fricbench.axis import plant as PL
+    from fricbench.sysid.diagnose.twin import _axis_tables, _check_round_trip
+
+    p = PL.default_row(10.0, 10.0)  # 400 kg and 400 N s/m at 40 N per effort unit
+    p[PL.FC] = 3.0
+    p[PL.TH_AMP], p[PL.TH_TAU], p[PL.TH_VHEAT] = -6e-6, 4.5, v_heat
+    tables = _axis_tables(p, 40.0)
+    effects = tables["effects"]
+    assert effects["thermal_drift"] == -6e-6 and effects["thermal_time_constant"] == 4.5
+    assert effects.get("thermal_heating_speed", 0.0) == v_heat
+    axis = Axis.from_dict({k: tables[k] for k in ("mechanics", "friction", "effects")})
+    _check_round_trip(axis, p, 40.0)
+    packed = axis.pack()
+    assert packed[PL.TH_VHEAT] == v_heat and packed[PL.TH_TAU] == 4.5

@@ -7,6 +7,8 @@ of an identified linear controller and the axis plant::
     M dv/dt = u - B v - F_eff(x, v)                                   (the plant, ZOH on u)
     y[k]   = play_b(x(t_k)) + d(t_k)                                  (logged position)
 
+(``d``: the thermal drift, of time or of the heating by the motor's motion.)
+
 Both halves live in :mod:`fricbench.axis`: the plant (:mod:`fricbench.axis.plant`, the same
 code the environments run) and the linear-law driver (:mod:`fricbench.axis.linear_law`). This
 module only names the plant entries the effects of :mod:`fricbench.sysid.diagnose.effects` fit
@@ -30,7 +32,8 @@ from fricbench.axis.plant import N_PLANT, PLANT_NAMES, sliding_force
 __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_plant",
            "sliding_force", "from_legacy_row", "LEGACY_N_PLANT",
            "I_M", "I_B", "I_FC", "I_DFC", "I_DB", "I_FS", "I_VS", "I_OFF", "I_COGA", "I_COGB",
-           "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_IMAX",
+           "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_THV",
+           "I_IMAX",
            "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR"]
 
 # -- the plant entries the diagnosis fits (indices into the plant row) --------------------------
@@ -38,7 +41,7 @@ I_M, I_B, I_FC, I_DFC, I_DB = PL.M, PL.B, PL.FC, PL.DFC, PL.DB
 I_FS, I_VS, I_OFF = PL.FS_EXCESS, PL.VS, PL.OFFSET
 I_COGA, I_COGB, I_COGP = PL.COG_SIN, PL.COG_COS, PL.COG_PERIOD
 I_PDG, I_PDA, I_PDB, I_PDP, I_XC = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIOD, PL.PD_CENTER
-I_BL, I_THA, I_THT = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU
+I_BL, I_THA, I_THT, I_THV = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.TH_VHEAT
 I_IMAX = PL.IMAX
 I_CR, I_CF, I_CZ = PL.COMP_RATIO, PL.COMP_FREQ, PL.COMP_ZETA
 I_MEAS_TABLE, I_LOG_MOTOR = PL.MEAS_TABLE, PL.LOG_MOTOR

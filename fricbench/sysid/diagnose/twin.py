@@ -95,6 +95,7 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "compliance_frequency": ("effects", "compliance_frequency", ""),
     "compliance_damping": ("effects", "compliance_damping", ""),
     "log_motor": "the logged side: an env observes the load (table) position",
+    "thermal_heating_speed": ("effects", "thermal_heating_speed", ""),
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -103,7 +104,8 @@ _POLAR = {"cog_sin": "cog_cos", "pd_sin": "pd_cos"}
 
 # an effect's columns whose off value makes the others irrelevant (their defaults are kept)
 _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_cos"),
-              "thermal_tau": ("thermal_amplitude",), "vs": ("fs_excess",),
+              "thermal_tau": ("thermal_amplitude",),
+              "thermal_heating_speed": ("thermal_amplitude",), "vs": ("fs_excess",),
               "delta": ("fs_excess",), "pd_center": ("pd_gradient",),
               "compliance_frequency": ("compliance_load_fraction",),
               "compliance_damping": ("compliance_load_fraction",)}

@@ -9,6 +9,7 @@ says). With ``sigma = sgn(v)`` and the friction scale
             + f0                                                   constant force
             + A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)  cogging
     y     = play_beta(x) + d_inf (1 - exp(-t / tau))               backlash, thermal drift
+            (or + d_inf theta, tau theta' = |v| / v_heat - theta)   (of time, or of motion)
     m_M a_M = ... + k d + c d' ,  m_L a_L = -k d - c d'             compliance (d = x_L - x_M)
 
 Third parties add effects through the entry-point group ``fricbench.effects`` (a callable

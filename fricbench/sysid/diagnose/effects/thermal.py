@@ -1,4 +1,13 @@
-"""Thermal drift: a slow growth of the measured position with time (thermal expansion)."""
+"""Thermal drift: a slow growth of the measured position, with time or with heating by motion.
+
+Two laws of the one plant (:mod:`fricbench.axis.plant`), chosen from the data by the fit's start:
+
+* of time, ``d(t) = d_inf (1 - exp(-t / tau))`` (a machine warming up whatever it does);
+* of motion, ``tau dtheta/dt = |v_M| / v_heat - theta``, ``d = d_inf theta`` (a ball screw
+  heated by turning: it grows while the axis moves and relaxes at rest). ``v_heat`` is the
+  run's mean reference speed, a fixed normaliser, so ``d_inf`` is the growth in sustained
+  motion at that speed.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +16,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy import signal
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
@@ -20,13 +30,37 @@ if TYPE_CHECKING:
 MIN_DURATION_S = 2.0
 """Shortest run on which a drift can be told from a slow loop, s."""
 
+TAU_GRID = (0.03, 0.1, 0.3, 1.0, 3.0)
+"""Time constants of the start's grid, as fractions of the run's length."""
+
+
+def heating_speed(prep: Prepared) -> float:
+    """The motion law's normaliser ``v_heat``: the run's mean reference speed (0 at rest)."""
+    speed = float(np.mean(np.abs(prep.inputs.vr)))
+    return speed if math.isfinite(speed) and speed > 0.0 else 0.0
+
+
+def heating_from_reference(prep: Prepared, tau: float, v_heat: float) -> np.ndarray:
+    """``theta`` at each sample, heated by the reference speed (the motor's, once it tracks).
+
+    ``theta[k+1] = theta[k] + (|v_r[k]| / v_heat - theta[k]) (1 - exp(-ts / tau))``, from
+    ``theta[0] = 0``: the plant's law for a speed held over each sample.
+    """
+    g = -math.expm1(-prep.ts / tau)
+    s = np.abs(prep.inputs.vr) / v_heat
+    # lfilter gives theta[k+1] = g s[k] + (1 - g) theta[k]; shift by one sample
+    after = signal.lfilter([g], [1.0, g - 1.0], s)
+    return np.concatenate(([0.0], after[:-1]))
+
 
 class ThermalDrift(Effect):
-    """``y = x + d_inf (1 - exp(-t / tau))``."""
+    """``y = x + d_inf (1 - exp(-t / tau))``, or ``y = x + d_inf theta`` heated by motion."""
 
     name = "thermal_drift"
     kind = "output"
-    summary = "a slow growth of the measured position with time (thermal expansion)"
+    summary = ("a slow growth of the measured position (thermal expansion), with time or with "
+               "heating by motion")
+    # the heating speed (time law: 0) is a fixed normaliser set by the start, never fitted
     parameters = (CL.I_THA, CL.I_THT)
     shape_parameters = (CL.I_THT,)
 
@@ -51,28 +85,41 @@ class ThermalDrift(Effect):
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:
-        return [({CL.I_THA: max(b.noise, 1e-7)}, {CL.I_THT: tau})
-                for tau in prep.duration * np.array([0.05, 0.2, 1.0, 5.0])]
+        v_heat = heating_speed(prep)
+        laws = (0.0, v_heat) if v_heat > 0.0 else (0.0,)
+        return [({CL.I_THA: max(b.noise, 1e-7)}, {CL.I_THT: tau, CL.I_THV: v})
+                for v in laws for tau in prep.duration * np.array([0.05, 0.2, 1.0, 5.0])]
 
     def output_start(self, model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
                      y: np.ndarray, mask: np.ndarray, simulate: SimulateFn) -> GreyBox:
-        """Best time constant on a grid, amplitude by least squares on ``mask``."""
+        """Best law and time constant on a grid, amplitude by least squares on ``mask``.
+
+        The motion law's temperature comes from the reference speed here (no simulation);
+        the fit then refines amplitude and time constant with the plant's own temperature,
+        heated by the simulated motor.
+        """
         r = prep.x - y
         t = prep.inputs.t
-        best = (math.inf, 0.0, prep.duration)
-        for tau in prep.duration * np.array([0.03, 0.1, 0.3, 1.0, 3.0]):
-            col = 1.0 - np.exp(-t / tau)
-            den = sumsq(col[mask])
-            if den <= 0:
-                continue
-            amp = float(np.einsum("i,i->", col[mask], r[mask])) / den
-            sse = float(np.sum((r[mask] - amp * col[mask]) ** 2))
-            if sse < best[0]:
-                best = (sse, amp, tau)
+        v_heat = heating_speed(prep)
+        best = (math.inf, 0.0, prep.duration, 0.0)
+        for tau in prep.duration * np.array(TAU_GRID):
+            cols = [(0.0, 1.0 - np.exp(-t / tau))]
+            if v_heat > 0.0:
+                cols.append((v_heat, heating_from_reference(prep, tau, v_heat)))
+            for law, col in cols:
+                den = sumsq(col[mask])
+                if den <= 0:
+                    continue
+                amp = float(np.einsum("i,i->", col[mask], r[mask])) / den
+                sse = float(np.sum((r[mask] - amp * col[mask]) ** 2))
+                if sse < best[0]:
+                    best = (sse, amp, tau, law)
         q = model.plant.copy()
         q[CL.I_THA] = best[1]
         q[CL.I_THT] = best[2]
+        q[CL.I_THV] = best[3]
         return model.copy(plant=q)
 
     def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
-        return {"d_inf_m": float(p[CL.I_THA]), "tau_s": float(p[CL.I_THT])}
+        return {"d_inf_m": float(p[CL.I_THA]), "tau_s": float(p[CL.I_THT]),
+                "heating_speed_m_s": float(p[CL.I_THV])}
