@@ -285,10 +285,11 @@ _KNOWN_MISSES: dict[tuple[str, int], str] = {
                       "1.83 um, floor 0.32 um)",
     ("cogging", 24): "rotary deg: misses cogging, names coulomb only (rms 929 -> 304 urad, "
                      "floor 5.73 urad)",
-    ("thermal", 25): "misses thermal_drift (50.6 um rms, floor 0.043 um): the simulator's "
-                     "growth follows the motor's speed, not time, and the time-driven model "
-                     "cuts the held-out error by less than the 22 % a non-friction effect "
-                     "judged on the position needs",
+    ("thermal", 25): "names nothing (50.6 um rms, floor 0.02 um, of which the drift is 1.6 um): "
+                     "the loop model misses most of the error (the run clips its current on "
+                     "3 % of the samples and logs no effort); thermal_drift's best fit, the "
+                     "motion-driven law, stands in for it with its time constant on the lower "
+                     "bound and is rejected",
     ("cogging", 28): "names position_dependent_friction (absent; judged on the effort) beside "
                      "cogging and asymmetric friction (rms 43.8 -> 2.05 um, floor 0.0089 um)",
 }
