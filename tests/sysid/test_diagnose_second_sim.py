@@ -196,6 +196,32 @@ def test_thermal_growth_reaches_only_the_log() -> None:
     assert np.max(np.abs(clean.drift)) > 0.05 * abs(growth)
 
 
+def _thermal_step(report: dict) -> dict[str, float]:
+    """The fitted thermal drift of the report's final model."""
+    return report["steps"][-1]["model"]["effects"]["thermal_drift"]
+
+
+@pytest.mark.parametrize("effort", [None, "N"])
+def test_diagnose_names_a_drift_heated_by_motion(tmp_path: object, effort: str | None) -> None:
+    """The simulator's growth follows the motor's speed: the diagnosis names thermal_drift with
+    the motion law (a heating speed), and without an effort recovers its size and time
+    constant and reaches the prediction floor (the time law left 0.91 um, 30 x the floor)."""
+    case = S.draw_case("thermal", 40, duration=10.0, law="cascade", effort=effort,
+                       saturate=False, delay=0, unit="mm", rounded=False, log_every=1)
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    assert "thermal_drift" in outcome.effects
+    report = outcome.report
+    assert report is not None
+    drift = _thermal_step(report)
+    assert drift["heating_speed_m_s"] > 0.0
+    if effort is None:
+        assert drift["d_inf_m"] == pytest.approx(case.plant.thermal_growth, rel=0.05)
+        assert drift["tau_s"] == pytest.approx(case.plant.thermal_tau, rel=0.1)
+        floor = report["noise_floor"]["prediction_floor_m"]
+        assert report["position"]["rms_after"] <= 2.0 * floor
+
+
 @pytest.mark.parametrize("overrides", [
     dict(unit="deg", time_column=False, sep=";", header="channels", effort="%"),
     dict(unit="mm", time_column=True, sep=",", header="names", effort="N", log_every=10),
