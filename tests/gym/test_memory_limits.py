@@ -23,9 +23,10 @@ def two_gb(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_num_envs_beyond_memory_is_refused_before_allocating(two_gb: None) -> None:
     t0 = time.perf_counter()
     # the figures follow the kernel's rows (a sub-env holds its plant, controller and state rows)
-    with pytest.raises(ValueError, match=r"^num_envs=10000000: needs about \d\d(\.\d)? GB of memory "
-                                         r"\(about \d\.\d+ kB per sub-env\) but 2 GB is available "
-                                         r"\(test limit\); expected num_envs <= \d+ here"):
+    message = (r"^num_envs=10000000: needs about \d\d(\.\d)? GB of memory "
+               r"\(about \d\.\d+ kB per sub-env\) but 2 GB is available "
+               r"\(test limit\); expected num_envs <= \d+ here")
+    with pytest.raises(ValueError, match=message):
         gym.make_vec("fricbench/RandomFriction-v0", num_envs=10**7,
                      vectorization_mode="vector_entry_point")
     assert time.perf_counter() - t0 < 5.0
