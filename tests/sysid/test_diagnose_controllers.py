@@ -167,3 +167,5 @@ def test_a_pid_drive_is_modelled_as_a_pid_loop() -> None:
     assert np.all(np.isfinite(err))
     assert rms < 2.0 * case.floor, (rms, case.floor)
     assert "coulomb_friction" in res.effects
+    # the report says which loop was used
+    assert res.to_dict()["controller_laws"]["train"].startswith("a PID position loop")

@@ -480,6 +480,13 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                                settings=settings, alt_loops=alt, log=log)
     log(f"stop: {search.stop_reason}")
     final = search.final.model
+    if (mode == "position" and isinstance(final.controller, CascadeController)
+            and final.controller.is_pid):
+        g = final.controller.pid_gains(prep.ts)
+        laws["train"] = ("a PID position loop fitted to the training run's position with "
+                         f"friction (per unit mass: P {g['p_1_s2']:.4g} 1/s^2, I "
+                         f"{g['i_1_s3']:.4g} 1/s^3, D {g['d_1_s']:.4g} 1/s, derivative filter "
+                         f"{1e3 * g['tf_s']:.3g} ms); the linear model's loop is a cascade")
     train = _evaluate(linear, final, prep)
     tf = fit_linear_tf(prep) if compare_tf else None
     val_eval = None
