@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import sys
+
 import control
 import numpy as np
 import pytest
@@ -10,26 +13,16 @@ from fricbench.axis import Axis, AxisBatch, simulate
 from fricbench.axis import kernel as K
 from fricbench.axis import plant as PL
 from fricbench.axis.linear import sampled_closed_loop
-from fricbench.axis.linear_law import simulate_batch
 from fricbench.trajectories import make_trajectory
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from plant_runs import open_loop as _open_loop  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def s_curve():
     return make_trajectory("s_curve")
-
-
-def _open_loop(row: np.ndarray, force: np.ndarray, ts: float, n_sub: int
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Table and motor positions of a plant row driven by ``force`` (no controller)."""
-    n = force.shape[0]
-    other = np.empty((1, n))
-    y, _, status = simulate_batch(row[None, :], np.zeros((1, 0)), np.zeros((1, 0)),
-                                  force[None, :], np.arange(n) * ts, ts, n_sub=n_sub, x0=0.0,
-                                  v0=0.0, u_init=np.zeros((1, 0)), y_init=np.zeros(0),
-                                  other=other)
-    assert status[0] == 0
-    return y[0], other[0]
 
 
 def _row(mass: float, ratio: float, f_r: float, zeta: float, ts: float = 1e-3,

@@ -2,31 +2,32 @@
 
 from __future__ import annotations
 
+import os
+import sys
+
 import numpy as np
 import pytest
 
 from fricbench.axis import Axis, linear_law, simulate
 from fricbench.axis import plant as PL
-from fricbench.axis.linear_law import simulate_batch
 from fricbench.trajectories import make_trajectory
 from fricbench.trajectories.base import Reference
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from plant_runs import open_loop  # noqa: E402
+
 TS = 1.0e-3
-KP, KV = 160.0, 240.0
-C = [-KV * KP - KV / (2 * TS), 0.0, KV / (2 * TS)]
 
 
 def _free_run(row: np.ndarray, force: np.ndarray, v0: float, n_sub: int
               ) -> tuple[np.ndarray, np.ndarray]:
     """Logged (table) and motor positions of a plant row driven open loop by ``force``."""
-    n = force.shape[0]
-    other = np.empty((1, n))
-    y, _, status = simulate_batch(row[None, :], np.zeros((1, 0)), np.zeros((1, 0)),
-                                  force[None, :], np.arange(n) * TS, TS, n_sub=n_sub, x0=0.0,
-                                  v0=v0, u_init=np.zeros((1, 0)), y_init=np.zeros(0),
-                                  other=other)
-    assert status[0] == 0
-    return y[0], other[0]
+    return open_loop(row, force, TS, n_sub, v0)
+
+
+KP, KV = 160.0, 240.0
+C = [-KV * KP - KV / (2 * TS), 0.0, KV / (2 * TS)]
 
 
 def _heated_row(amp: float, tau: float, v_heat: float) -> np.ndarray:

@@ -170,6 +170,26 @@ def test_replay_options_need_a_reference_csv(capsys: pytest.CaptureFixture[str])
     assert "--position x: only with --reference-csv" in capsys.readouterr().err
 
 
+def _replay(folder: Path, monkeypatch: pytest.MonkeyPatch, env_id: str, run: Path
+            ) -> np.ndarray:
+    """The position of the twin ``env_id`` (its spec in ``folder``) replaying ``run``'s
+    reference (``fricbench simulate --reference-csv``); nothing left registered."""
+    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
+    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
+    monkeypatch.setenv("FRICBENCH_ENV_PATH", str(folder))
+    before = set(gym.registry)
+    try:
+        register_envs()
+        replay = folder / "replay.csv"
+        assert cli_main(["simulate", "--env", env_id, "--reference-csv", str(run),
+                         "--position", "x", "--csv", str(replay)]) == 0
+    finally:
+        for registered in set(gym.registry) - before:
+            del gym.registry[registered]
+    with open(replay) as fh:
+        return np.array([float(r["x"]) for r in csv.DictReader(fh)])
+
+
 def test_a_run_without_effort_gives_a_cascade_twin(tmp_path: Path,
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     """No effort: the model is per unit mass with a fitted cascade; the twin gets --env-mass
@@ -185,22 +205,9 @@ def test_a_run_without_effort_gives_a_cascade_twin(tmp_path: Path,
     ctrl = data["axis"]["controller"]
     assert ctrl.get("law", "cascade") == "cascade" and ctrl["kp"] > 0 and ctrl["kv"] > 0
     assert data["axis"]["mechanics"]["mass"] == 400.0 and data["id"] == "fricbench/Pos-v0"
-    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
-    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
-    monkeypatch.setenv("FRICBENCH_ENV_PATH", str(tmp_path))
-    before = set(gym.registry)
-    try:
-        register_envs()
-        replay = tmp_path / "replay.csv"
-        assert cli_main(["simulate", "--env", "fricbench/Pos-v0", "--reference-csv", str(run),
-                         "--position", "x", "--csv", str(replay)]) == 0
-    finally:
-        for env_id in set(gym.registry) - before:
-            del gym.registry[env_id]
+    sim = _replay(tmp_path, monkeypatch, "fricbench/Pos-v0", run)
     with open(run) as fh:
         measured = np.array([float(r["x"]) for r in csv.DictReader(fh)])
-    with open(replay) as fh:
-        sim = np.array([float(r["x"]) for r in csv.DictReader(fh)])
     rms = float(np.sqrt(np.mean((sim - measured) ** 2)))
     pos = json.loads((tmp_path / "d.json").read_text())["position"]
     q = axis.effects.quantization
@@ -233,20 +240,7 @@ def test_a_pid_loop_gives_a_linear_law_twin(tmp_path: Path,
     report = json.loads((tmp_path / "d.json").read_text())
     ctrl = tomllib.loads(out.read_text())["axis"]["controller"]
     assert ctrl["law"] == "linear" and len(ctrl["law_recursion"]) == 2
-    monkeypatch.setattr(env_registry, "_entries", dict(env_registry._entries))
-    monkeypatch.setattr(env_registry, "_files_read", set(env_registry._files_read))
-    monkeypatch.setenv("FRICBENCH_ENV_PATH", str(tmp_path))
-    before = set(gym.registry)
-    try:
-        register_envs()
-        replay = tmp_path / "replay.csv"
-        assert cli_main(["simulate", "--env", "fricbench/PidTwin-v0", "--reference-csv",
-                         str(run), "--position", "x", "--csv", str(replay)]) == 0
-    finally:
-        for env_id in set(gym.registry) - before:
-            del gym.registry[env_id]
-    with open(replay) as fh:
-        sim = np.array([float(r["x"]) for r in csv.DictReader(fh)])
+    sim = _replay(tmp_path, monkeypatch, "fricbench/PidTwin-v0", run)
     measured = case.trace.y_log[idx]
     rms = float(np.sqrt(np.mean((sim - measured) ** 2)))
     pos = report["position"]
