@@ -1,4 +1,5 @@
-"""The loop models of a run without an effort: the P-PI cascade and the PID position loop.
+"""The loop models of a run without an effort: the P-PI cascade, the PID position loop, and
+the drive's limit.
 
 The PID form of :class:`CascadeController` (a position-error integral ``kpi`` and a filter on
 the velocity error) is checked against a textbook PID written here sample by sample, and on
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 
 from fricbench.sysid.diagnose import baselines as BL
+from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController, LoopInputs
 from fricbench.sysid.diagnose.models import Bounds, GreyBox, cascade_effort, position_params
 from fricbench.sysid.diagnose.prepared import prepare
@@ -169,3 +171,38 @@ def test_a_pid_drive_is_modelled_as_a_pid_loop() -> None:
     assert "coulomb_friction" in res.effects
     # the report says which loop was used
     assert res.to_dict()["controller_laws"]["train"].startswith("a PID position loop")
+
+
+def test_a_clipping_drive_is_found_from_the_position() -> None:
+    """A drive that clips its current, logged without an effort: the loop with a drive limit
+    fits far better, the limit is reported as a warning and every model clips there; a drive
+    that never clips gets no limit."""
+    from fricbench.sysid.diagnose.diagnosis import diagnose
+
+    case = S.draw_case("control", 12, law="cascade", saturate=True, log_every=1, effort=None)
+    assert np.mean(case.trace.clipped) > 0.01  # the drive did clip
+    truth = case.ctrl.limit * case.ctrl.kt / case.plant.mass
+    idx = case.index
+    run = validate_arrays(case.trace.t[idx], case.trace.x_ref[idx], case.trace.y_log[idx])
+    prep = prepare(run)
+    linear, _, bounds, _ = BL.fit_linear_cascade(prep)
+    fit = BL.friction_aware_fit(linear, prep, bounds)
+    assert fit is not None
+    limit = BL.fit_drive_limit(fit, prep, bounds)
+    assert limit is not None
+    assert 0.5 * truth < limit.level < 2.0 * truth, (limit, truth)
+    assert limit.sse_ratio < BL.LIMIT_MARGIN and limit.clipped_share >= BL.LIMIT_MIN_CLIPPED
+    res = diagnose(run)
+    assert any("the drive clips" in w for w in res.warnings)
+    assert res.final.plant[CL.I_IMAX] == pytest.approx(limit.level)
+    before = float(np.sqrt(np.mean((prep.x - res.train.y_before) ** 2)))
+    after = float(np.sqrt(np.mean((prep.x - res.train.y_after) ** 2)))
+    assert after < 0.5 * before
+
+    calm = S.draw_case("control", 8, law="pid", saturate=False, log_every=1, effort=None)
+    idx = calm.index
+    prep = prepare(validate_arrays(calm.trace.t[idx], calm.trace.x_ref[idx],
+                                   calm.trace.y_log[idx]))
+    linear, _, bounds, _ = BL.fit_linear_cascade(prep)
+    fit = BL.friction_aware_fit(linear, prep, bounds)
+    assert fit is not None and BL.fit_drive_limit(fit, prep, bounds) is None

@@ -18,7 +18,9 @@ from fricbench.sysid.diagnose.models import (
     Bounds,
     GreyBox,
     InverseDynamics,
+    Param,
     PositionFit,
+    PositionFitResult,
     cascade_effort,
     position_params,
     simulate_models,
@@ -150,6 +152,75 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     return best.model, best.y, bounds, best.jac_rows
 
 
+LIMIT_MARGIN = 0.5
+"""A drive limit identified from the position alone is kept only when the loop with it fits
+the run with at most this fraction of the squared error without it (a limit is one more
+nonlinearity a fit can bend to other mismatches: it must explain much)."""
+
+LIMIT_MIN_CLIPPED = 0.005
+"""Share of the samples the identified limit must clip (a limit that never acts is none)."""
+
+
+@dataclass(frozen=True)
+class DriveLimit:
+    """A drive limit identified from a run without an effort.
+
+    Attributes
+    ----------
+    level : float
+        The limit of the loop's command, per unit mass (m/s^2).
+    clipped_share : float
+        Share of the samples the fitted loop clips.
+    sse_ratio : float
+        Squared position error with the limit over the error without it (loop and Coulomb
+        friction refitted both ways).
+    """
+
+    level: float
+    clipped_share: float
+    sse_ratio: float
+
+
+def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
+                    max_iter: int = 15) -> DriveLimit | None:
+    """The drive's command limit, when a run without an effort shows one; else None.
+
+    A drive that clips its current (a rapid move, a reversal against friction) lags the
+    reference in a way no linear loop with friction reproduces: without the effort nothing
+    says it clipped. From ``fit``, the loop and a Coulomb force fitted together
+    (:func:`friction_aware_fit`), they are fitted again with a limit on the loop's command
+    (starts at 1 and 2 times the reference's largest acceleration: a drive sized for the
+    motion; the loop's family kept); the limit is kept when
+    the error falls below :data:`LIMIT_MARGIN` of the error without it and the fitted loop
+    clips at least :data:`LIMIT_MIN_CLIPPED` of the samples. Like the loop gains it is a
+    property of the loop the effects are then judged with, not an effect.
+    """
+    a_ref = float(np.max(np.abs(prep.inputs.ar)))
+    free = fit
+    if not a_ref > 0.0 or np.isfinite(free.model.plant[CL.I_IMAX]):
+        return None
+    limit_param = Param(CL.I_IMAX, True, 0.5 * a_ref, 100.0 * a_ref, 1.0)
+    best = None
+    for factor in (1.0, 2.0):
+        m = free.model.copy()
+        m.plant[CL.I_IMAX] = factor * a_ref
+        params = position_params(m, bounds, controller=True) + [limit_param]
+        res = PositionFit(prep, params).run(m, max_iter=max_iter)
+        if best is None or res.cost < best.cost:
+            best = res
+    if best is None or not np.isfinite(best.cost) or not free.cost > 0.0:
+        return None
+    level = float(best.model.plant[CL.I_IMAX])
+    _, u, status = simulate_models([best.model], prep)
+    if status[0] != 0 or not np.all(np.isfinite(u[0])):
+        return None
+    clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
+    ratio = float(best.cost / free.cost)
+    if ratio < LIMIT_MARGIN and clipped >= LIMIT_MIN_CLIPPED:
+        return DriveLimit(level, clipped, ratio)
+    return None
+
+
 LAW_PREFILTERS = (None, 1 / 4, 1 / 8, 1 / 16, 1 / 32)
 """Prefilters the control law is fitted through, as fractions of the Nyquist frequency
 (None: unfiltered); see :func:`fit_law`."""
@@ -263,18 +334,10 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     return model, idim, bounds, min(ctrl.relerr_pct, law_relerr_floor(prep))
 
 
-def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
-                        *, pid: bool = True) -> GreyBox:
-    """The loop gains identified together with a Coulomb friction force.
-
-    Without an effort, a linear fit hardly sees the feedback gains: with feedforward the
-    reference is tracked almost whatever they are, and what the gains do show is the response
-    to disturbances, which a linear model does not have. Friction is the disturbance every
-    axis has, so the gains are identified with a Coulomb force in the model (from the linear
-    loop and from the best standard loops). The returned model is linear again - the loop of
-    the joint fit with the linear plant refitted - and is the base the candidate effects are
-    judged against; whether friction itself belongs in the model is then judged like any
-    other effect.
+def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
+                       *, pid: bool = True) -> PositionFitResult | None:
+    """The loop and a Coulomb force fitted together to the position (None: nothing could be
+    simulated), from the linear loop and from the best standard loops.
 
     With ``pid`` (the default) the best standard PID position loop is refined too and
     replaces the cascade when it fits clearly better (:data:`PID_MARGIN`): a drive whose PID
@@ -312,6 +375,24 @@ def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_ite
     # clearly better: a cascade reaches only the PIDs with real P-PI gains and no filter
     if best_pid is not None and (best is None or best_pid.cost < PID_MARGIN * best.cost):
         best = best_pid
+    return best
+
+
+def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
+                        *, pid: bool = True, fit: PositionFitResult | None = None) -> GreyBox:
+    """The loop gains identified together with a Coulomb friction force.
+
+    Without an effort, a linear fit hardly sees the feedback gains: with feedforward the
+    reference is tracked almost whatever they are, and what the gains do show is the response
+    to disturbances, which a linear model does not have. Friction is the disturbance every
+    axis has, so the gains are identified with a Coulomb force in the model
+    (:func:`friction_aware_fit`, or its result ``fit``). The returned model is linear again -
+    the loop of the joint fit with the linear plant refitted - and is the base the candidate
+    effects are judged against; whether friction itself belongs in the model is then judged
+    like any other effect.
+    """
+    best = fit if fit is not None else friction_aware_fit(linear, prep, bounds, max_iter,
+                                                          pid=pid)
     if best is None:
         return linear
     loop = best.model.controller

@@ -16,15 +16,23 @@ import numpy as np
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.baselines import (
     LinearTF,
+    fit_drive_limit,
     fit_law_like,
     fit_linear_cascade,
     fit_linear_tf,
     fit_linear_with_effort,
+    friction_aware_fit,
     friction_aware_loop,
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
 from fricbench.sysid.diagnose.effects import describe_parameters
-from fricbench.sysid.diagnose.models import GreyBox, InverseDynamics, simulate_position
+from fricbench.sysid.diagnose.models import (
+    GreyBox,
+    InverseDynamics,
+    PositionFit,
+    position_params,
+    simulate_position,
+)
 from fricbench.sysid.diagnose.prepared import Prepared, prepare
 from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
 from fricbench.sysid.diagnose.verdict import Verdict, judge
@@ -474,7 +482,30 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         f" ({time.perf_counter() - t0:.1f} s)")
     alt: tuple = ()
     if mode == "position" and run.n_reversals > 0:
-        alt = (friction_aware_loop(linear, prep, bounds).controller,)
+        fit = friction_aware_fit(linear, prep, bounds)
+        loop = friction_aware_loop(linear, prep, bounds, fit=fit)
+        limit = fit_drive_limit(fit, prep, bounds) if fit is not None else None
+        if limit is not None:
+            # the drive clips: every model of the run (the linear one included, as with a
+            # clipping effort) runs with the limit
+            linear = linear.copy(plant=linear.plant.copy())
+            linear.plant[CL.I_IMAX] = limit.level
+            # the linear loop refitted under the limit (its gains were fitted without one)
+            refit = PositionFit(prep, position_params(linear, bounds, controller=True)).run(
+                linear, max_iter=15)
+            linear, y_lin = refit.model, refit.y
+            loop = friction_aware_loop(linear, prep, bounds)
+            warnings.append(
+                f"the drive clips: a limit of {limit.level:.4g} m/s^2 per unit mass on the "
+                f"loop's command, identified from the position (no effort logged; the loop "
+                f"with it clips {100 * limit.clipped_share:.1f} % of the samples and leaves "
+                f"{100 * limit.sse_ratio:.0f} % of the squared error without it); every "
+                "model of the run clips there")
+            log(f"  warning: {warnings[-1]}")
+            if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
+                raise DiagnosisError("no valid linear model of this run: the linear loop "
+                                     "with the identified drive limit diverges")
+        alt = (loop.controller,)
         log(f"  loop gains identified with friction: {alt[0].to_dict()}")
     search = forward_selection(linear, y_lin, prep, bounds, idim=idim, w=w, jac=jac,
                                settings=settings, alt_loops=alt, log=log)

@@ -819,8 +819,14 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             full = _refit(fits[k_best].model, prep, b, 12)
             size = _effect_position_size(full.model, winner.effect, prep, None, full.y)
             why = artefact(full.model, winner.effect, prep, b)
+            # the refit on all samples must keep at least the cut the held-out test required
+            # (an in-sample fit does better than a held-out one): a gain that vanished there
+            # was a fold's accident
+            kept = full.cost / max(_half_sse(cur.y, prep), 1e-300)
+            need = math.exp(-settings.required(winner.n_params, winner.effect,
+                                               winner.judged_on))
             if why is None and size >= settings.min_size(winner.effect) * floor and (
-                    full.cost <= _half_sse(cur.y, prep)):
+                    kept <= need):
                 accepted = (winner, full)
                 break
             winner.size_ok = False
@@ -829,7 +835,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                 warnings.append(f"rejected {why}")
             else:
                 winner.note += (f"; vanished in the refit on all samples "
-                                f"(size {size / floor:.2f})")
+                                f"(size {size / floor:.2f}, error x{kept:.3f})")
             log(f"    {winner.effect} rejected: {winner.note}")
             pool = [s for s in pool if s is not winner]
         if accepted is None:

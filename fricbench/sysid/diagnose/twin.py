@@ -301,6 +301,9 @@ def twin_spec(result: Any, env_id: str, *, effort_gain: float | None = None,
         i_max, limit_note = _positive("effort_limit", effort_limit), "stated"
     elif prep.saturation is not None:
         i_max, limit_note = float(prep.saturation.level), "the clip level detected in the run"
+    elif math.isfinite(float(model.plant[PL.IMAX])):
+        i_max = float(model.plant[PL.IMAX])
+        limit_note = "the drive limit identified from the position"
     else:
         i_max = 10.0 * peak
         limit_note = "10 x the run's largest effort (no clipping seen; not identified)"
