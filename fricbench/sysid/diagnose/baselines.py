@@ -196,26 +196,24 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     property of the loop the effects are then judged with, not an effect.
     """
     a_ref = float(np.max(np.abs(prep.inputs.ar)))
-    free = fit
-    if not a_ref > 0.0 or np.isfinite(free.model.plant[CL.I_IMAX]):
+    if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None
     limit_param = Param(CL.I_IMAX, True, 0.5 * a_ref, 100.0 * a_ref, 1.0)
-    best = None
+    fits = []
     for factor in (1.0, 2.0):
-        m = free.model.copy()
+        m = fit.model.copy()
         m.plant[CL.I_IMAX] = factor * a_ref
         params = position_params(m, bounds, controller=True) + [limit_param]
-        res = PositionFit(prep, params).run(m, max_iter=max_iter)
-        if best is None or res.cost < best.cost:
-            best = res
-    if best is None or not np.isfinite(best.cost) or not free.cost > 0.0:
+        fits.append(PositionFit(prep, params).run(m, max_iter=max_iter))
+    best = min(fits, key=lambda r: r.cost)
+    if not np.isfinite(best.cost):
         return None
     level = float(best.model.plant[CL.I_IMAX])
     _, u, status = simulate_models([best.model], prep)
     if status[0] != 0 or not np.all(np.isfinite(u[0])):
         return None
     clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
-    ratio = float(best.cost / free.cost)
+    ratio = float(best.cost / fit.cost)
     if ratio < LIMIT_MARGIN and clipped >= LIMIT_MIN_CLIPPED:
         return DriveLimit(level, clipped, ratio)
     return None
