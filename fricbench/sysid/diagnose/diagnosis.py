@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -33,6 +34,7 @@ from fricbench.sysid.diagnose.models import (
     position_params,
     simulate_position,
 )
+from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare
 from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
 from fricbench.sysid.diagnose.verdict import Verdict, judge
@@ -143,6 +145,7 @@ class DiagnosisResult:
     notes: list[str] = field(default_factory=list)
     laws: dict[str, str] = field(default_factory=dict)
     diagnosis_warnings: list[str] = field(default_factory=list)
+    mode_comparison: dict[str, object] | None = None
 
     @property
     def warnings(self) -> list[str]:
@@ -240,6 +243,8 @@ class DiagnosisResult:
                                 "position_max_m": float(np.max(np.abs(e))),
                                 "tf": str(self.linear_tf.tf).strip()}
         out["controller_laws"] = dict(self.laws)
+        if self.mode_comparison is not None:
+            out["mode_comparison"] = self.mode_comparison
         out["stop_reason"] = self.search.stop_reason
         out["rejected_at_last_step"] = [c.to_dict() for c in rejected]
         out["noise_floor"] = dict(self.prep.noise.to_dict(),
@@ -375,6 +380,172 @@ def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
     return RunEvaluation(prep, y_before, y_after, eb, ea, share, used, sb, sa)
 
 
+MODE_MARGIN = 0.5
+"""A run with an effort is diagnosed on its position alone when the final model of that
+diagnosis leaves less than this share of the squared free-run position error the effort's
+diagnosis leaves (the drive-limit rule's "below half")."""
+
+LAW_EXACT_PCT = 0.5
+"""A law identified from the effort within this relative error (%) is the controller's own,
+acting on the logged position at the loop's rate, and is kept without the comparison of
+:data:`MODE_MARGIN` (a linear loop's free run also carries the noise the controller fed back,
+which a loop fitted to the position can trade for lower gains). On the second simulator,
+drives logged at their rate on the encoder they read leave 0.1 %; semi-closed loops, slower
+logs and delays 0.4-20 %."""
+
+
+@dataclass
+class _ModeFit:
+    """One diagnosis of the training run, with the effort's law or on the position alone."""
+
+    mode: str
+    force_unit: str
+    prep: Prepared
+    linear: GreyBox
+    search: SearchResult
+    train: RunEvaluation
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    laws: dict[str, str] = field(default_factory=dict)
+    comparison: dict[str, object] | None = None
+
+    @property
+    def finite(self) -> bool:
+        """Whether both free runs of the training run stay finite."""
+        return bool(np.all(np.isfinite(self.train.y_after))
+                    and np.all(np.isfinite(self.train.y_before)))
+
+    @property
+    def sse(self) -> float:
+        """Squared free-run position error of the final model (inf after a divergence)."""
+        e = self.prep.x - self.train.y_after
+        return float(np.sum(e**2)) if np.all(np.isfinite(e)) else float("inf")
+
+
+def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDynamics,
+                bounds: Bounds, ctrl_err: float, y_lin: np.ndarray,
+                injected: tuple[np.ndarray | None, float | None, bool], force_unit: str,
+                settings: SearchSettings | None, log: Callable[[str], None],
+                t0: float) -> _ModeFit:
+    """The search with the law identified from the effort and the inverse dynamics."""
+    w, share, used = injected
+    notes = [f"controller law identified from the effort with {ctrl_err:.2f} % relative error"]
+    laws = {"train": f"identified on the training run ({ctrl_err:.2f} % relative error)"}
+    if used and share is not None:
+        notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
+                     "controller law; it is fed to the simulations as an injected input")
+    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
+        f" ({time.perf_counter() - t0:.1f} s)")
+    search = forward_selection(linear, y_lin, prep, bounds, idim=idim, w=w, jac=None,
+                               settings=settings, alt_loops=(), log=log)
+    log(f"stop: {search.stop_reason}")
+    train = _evaluate(linear, search.final.model, prep)
+    return _ModeFit("effort", force_unit, prep, linear, search, train, notes, [], laws)
+
+
+def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
+                  log: Callable[[str], None], t0: float) -> _ModeFit:
+    """The search on the position alone: a loop fitted to the position, forces per unit mass."""
+    notes = ["no effort column: forces are reported per unit mass (m/s^2)"]
+    warnings: list[str] = []
+    laws = {"train": "a cascade fitted to the training run's position"}
+    log("linear model: cascade controller on a unit mass, output-error fit")
+    try:
+        linear, y_lin, bounds, jac = fit_linear_cascade(prep)
+    except ValueError as exc:
+        raise DiagnosisError(f"no valid linear model of this run: {exc}") from exc
+    if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
+        raise DiagnosisError("no valid linear model of this run: every linear loop fitted "
+                             "to the position diverges or misses it by more than the "
+                             "stroke")
+    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
+        f" ({time.perf_counter() - t0:.1f} s)")
+    alt: tuple = ()
+    if run.n_reversals > 0:
+        fit = friction_aware_fit(linear, prep, bounds)
+        loop = friction_aware_loop(linear, prep, bounds, fit=fit)
+        limit = fit_drive_limit(fit, prep, bounds) if fit is not None else None
+        if limit is not None:
+            # the drive clips: every model of the run (the linear one included, as with a
+            # clipping effort) runs with the limit
+            linear = linear.copy(plant=linear.plant.copy())
+            linear.plant[CL.I_IMAX] = limit.level
+            # the linear loop refitted under the limit (its gains were fitted without one)
+            refit = PositionFit(prep, position_params(linear, bounds, controller=True)).run(
+                linear, max_iter=15)
+            linear, y_lin = refit.model, refit.y
+            loop = friction_aware_loop(linear, prep, bounds)
+            warnings.append(
+                f"the drive clips: a limit of {limit.level:.4g} m/s^2 per unit mass on the "
+                f"loop's command, identified from the position (no effort logged; the loop "
+                f"with it clips {100 * limit.clipped_share:.1f} % of the samples and leaves "
+                f"{100 * limit.sse_ratio:.0f} % of the squared error without it); every "
+                "model of the run clips there")
+            log(f"  warning: {warnings[-1]}")
+            if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
+                raise DiagnosisError("no valid linear model of this run: the linear loop "
+                                     "with the identified drive limit diverges")
+        alt = (loop.controller,)
+        log(f"  loop gains identified with friction: {alt[0].to_dict()}")
+    search = forward_selection(linear, y_lin, prep, bounds, idim=None, w=None, jac=jac,
+                               settings=settings, alt_loops=alt, log=log)
+    log(f"stop: {search.stop_reason}")
+    final = search.final.model
+    if isinstance(final.controller, CascadeController) and final.controller.is_pid:
+        g = final.controller.pid_gains(prep.ts)
+        laws["train"] = ("a PID position loop fitted to the training run's position with "
+                         f"friction (per unit mass: P {g['p_1_s2']:.4g} 1/s^2, I "
+                         f"{g['i_1_s3']:.4g} 1/s^3, D {g['d_1_s']:.4g} 1/s, derivative filter "
+                         f"{1e3 * g['tf_s']:.3g} ms); the linear model's loop is a cascade")
+    train = _evaluate(linear, final, prep)
+    return _ModeFit("position", "m_s2", prep, linear, search, train, notes, warnings, laws)
+
+
+def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared,
+               settings: SearchSettings | None, log: Callable[[str], None],
+               t0: float) -> _ModeFit:
+    """The effort's diagnosis, or the position's when it predicts the position clearly better.
+
+    A law identified from a logged effort reproduces the drive's loop only when the log holds
+    what the controller read and computed, at the loop's rate: an effort logged slower than the
+    loop runs, a position fed back from another sensor (a semi-closed loop) or a delay before
+    the force break that, and the law's loop then predicts the position worse than a loop
+    fitted to the position with friction. The position decides (the issue's fallback to the
+    position-only search), by :data:`MODE_MARGIN`, and the report says why.
+    """
+    log("checking the effort's loop against a loop fitted to the position alone")
+    try:
+        pos = _fit_position(run, prep_pos, settings, log, t0)
+    except DiagnosisError:
+        return effort
+    n = effort.prep.x.shape[0]
+    rms_e, rms_p = math.sqrt(effort.sse / n), math.sqrt(pos.sse / n)
+    comparison: dict[str, object] = {
+        "rule": f"the position alone when its squared error < {MODE_MARGIN:g} x the effort's",
+        "effort": {"effects": _effects(effort), "position_rms_m": rms_e},
+        "position": {"effects": _effects(pos), "position_rms_m": rms_p}}
+    if not pos.finite or (effort.finite and not pos.sse < MODE_MARGIN * effort.sse):
+        effort.comparison = dict(comparison, chosen="effort")
+        return effort
+    pos.comparison = dict(comparison, chosen="position")
+    unit = run.units.get("position", "m")
+    why = (f"the loop of the control law identified from the effort predicts the position "
+           f"worse ({rms_e:.3g} {unit} rms with {', '.join(_effects(effort)) or 'no effect'}) "
+           f"than a loop fitted to the position with friction ({rms_p:.3g} {unit}): the law "
+           "does not reproduce the drive's loop (an effort logged slower than the loop runs, "
+           "a position fed back from another sensor, a delay); the diagnosis runs on the "
+           "position alone (forces per unit mass)")
+    log(f"warning: {why}")
+    pos.warnings.insert(0, why)
+    pos.notes = ["forces are reported per unit mass (m/s^2): the effort's law was set aside "
+                 "(see the warnings)"]
+    return pos
+
+
+def _effects(fit: _ModeFit) -> list[str]:
+    return [st.effect for st in fit.search.steps[1:] if st.effect is not None]
+
+
 def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
              settings: SearchSettings | None = None, compare_tf: bool = False,
              cutoff_hz: float | None = None, decim: int | None = None,
@@ -442,83 +613,33 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                      "chosen from the sensor resolution against the motion's mean speed (the "
                      "recipe's tenth of the sampling rate would differentiate the sensor's "
                      "steps); --filter-hz and --decimate override")
-    idim: InverseDynamics | None = None
+    fit: _ModeFit | None = None
+    prep_pos = prep
     if prep.u is not None:
         log("linear model: controller law from the effort, inverse dynamics u = M a + B v")
         linear, idim, bounds, ctrl_err = fit_linear_with_effort(prep)
         w, share, used = _injected(linear.controller, prep)
         y_lin, _ = simulate_position(linear, prep, w)
         why = _law_unusable(ctrl_err, prep, y_lin)
+        prep_pos = prepare(dataclasses.replace(run, u=None), cutoff_hz=cutoff_hz, decim=decim,
+                           quantum=quantum)
         if why is not None:
             warnings.append(f"{why}: the effort is not used for the loop; the diagnosis runs "
                             "on the position alone (forces per unit mass)")
             log(f"warning: {warnings[-1]}")
-            prep = prepare(dataclasses.replace(run, u=None), cutoff_hz=cutoff_hz, decim=decim,
-                           quantum=quantum)
-    if prep.u is not None:
-        mode, fu = "effort", force_unit
-        notes.append(f"controller law identified from the effort with {ctrl_err:.2f} % "
-                     "relative error")
-        laws["train"] = f"identified on the training run ({ctrl_err:.2f} % relative error)"
-        if used and share is not None:
-            notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
-                         "controller law; it is fed to the simulations as an injected input")
-        jac = None
-    else:
-        mode, fu = "position", "m_s2"
-        log("linear model: cascade controller on a unit mass, output-error fit")
-        try:
-            linear, y_lin, bounds, jac = fit_linear_cascade(prep)
-        except ValueError as exc:
-            raise DiagnosisError(f"no valid linear model of this run: {exc}") from exc
-        if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
-            raise DiagnosisError("no valid linear model of this run: every linear loop fitted "
-                                 "to the position diverges or misses it by more than the "
-                                 "stroke")
-        idim, w = None, None
-        notes.append("no effort column: forces are reported per unit mass (m/s^2)")
-        laws["train"] = "a cascade fitted to the training run's position"
-    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
-        f" ({time.perf_counter() - t0:.1f} s)")
-    alt: tuple = ()
-    if mode == "position" and run.n_reversals > 0:
-        fit = friction_aware_fit(linear, prep, bounds)
-        loop = friction_aware_loop(linear, prep, bounds, fit=fit)
-        limit = fit_drive_limit(fit, prep, bounds) if fit is not None else None
-        if limit is not None:
-            # the drive clips: every model of the run (the linear one included, as with a
-            # clipping effort) runs with the limit
-            linear = linear.copy(plant=linear.plant.copy())
-            linear.plant[CL.I_IMAX] = limit.level
-            # the linear loop refitted under the limit (its gains were fitted without one)
-            refit = PositionFit(prep, position_params(linear, bounds, controller=True)).run(
-                linear, max_iter=15)
-            linear, y_lin = refit.model, refit.y
-            loop = friction_aware_loop(linear, prep, bounds)
-            warnings.append(
-                f"the drive clips: a limit of {limit.level:.4g} m/s^2 per unit mass on the "
-                f"loop's command, identified from the position (no effort logged; the loop "
-                f"with it clips {100 * limit.clipped_share:.1f} % of the samples and leaves "
-                f"{100 * limit.sse_ratio:.0f} % of the squared error without it); every "
-                "model of the run clips there")
-            log(f"  warning: {warnings[-1]}")
-            if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
-                raise DiagnosisError("no valid linear model of this run: the linear loop "
-                                     "with the identified drive limit diverges")
-        alt = (loop.controller,)
-        log(f"  loop gains identified with friction: {alt[0].to_dict()}")
-    search = forward_selection(linear, y_lin, prep, bounds, idim=idim, w=w, jac=jac,
-                               settings=settings, alt_loops=alt, log=log)
-    log(f"stop: {search.stop_reason}")
+        else:
+            fit = _fit_effort(run, prep, linear, idim, bounds, ctrl_err, y_lin,
+                              (w, share, used), force_unit, settings, log, t0)
+            if ctrl_err > LAW_EXACT_PCT or not fit.finite:
+                fit = _better_of(fit, run, prep_pos, settings, log, t0)
+    if fit is None:
+        fit = _fit_position(run, prep_pos, settings, log, t0)
+    prep, mode, fu, linear, search, train = (fit.prep, fit.mode, fit.force_unit, fit.linear,
+                                             fit.search, fit.train)
     final = search.final.model
-    if (mode == "position" and isinstance(final.controller, CascadeController)
-            and final.controller.is_pid):
-        g = final.controller.pid_gains(prep.ts)
-        laws["train"] = ("a PID position loop fitted to the training run's position with "
-                         f"friction (per unit mass: P {g['p_1_s2']:.4g} 1/s^2, I "
-                         f"{g['i_1_s3']:.4g} 1/s^3, D {g['d_1_s']:.4g} 1/s, derivative filter "
-                         f"{1e3 * g['tf_s']:.3g} ms); the linear model's loop is a cascade")
-    train = _evaluate(linear, final, prep)
+    notes += fit.notes
+    warnings += fit.warnings
+    laws.update(fit.laws)
     tf = fit_linear_tf(prep) if compare_tf else None
     val_eval = None
     if validate is not None:
@@ -540,7 +661,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
             notes.append("the validation run has no effort: only position metrics")
         if not np.all(np.isfinite(val_eval.y_after)):
             warnings.append("the final model diverges on the validation run")
-    if not (np.all(np.isfinite(train.y_after)) and np.all(np.isfinite(train.y_before))):
+    if not fit.finite:
         raise DiagnosisError("the fitted loop diverges in a free run of the training run: no "
                              "valid model of this run")
     warnings += search.warnings
@@ -548,4 +669,4 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                            search=search, train=train, validation=val_eval,
                            validation_run=validate, linear_tf=tf,
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
-                           diagnosis_warnings=warnings)
+                           diagnosis_warnings=warnings, mode_comparison=fit.comparison)
