@@ -183,6 +183,10 @@ def test_a_linear_pd_loop_gets_no_effect_and_every_number_is_finite() -> None:
     out = diagnose(validate_arrays(t, xr, x, u)).to_dict()
     _check_report(out)
     assert out["effects"] == []
+    # the law is exact (the controller read the logged position at the loop's rate): the
+    # effort is kept, without a comparison with a loop fitted to the position (whose free run
+    # trades the noise the controller fed back for lower gains and a false force offset)
+    assert out["data"]["mode"] == "effort" and "mode_comparison" not in out
     assert out["verdict"] in {"nothing_to_explain", "not_explained"}
     assert out["verdict"] != "not_explained" or out["verdict_detail"]["residual"]
 

@@ -333,3 +333,27 @@ def test_diagnose_names_the_effect_and_cuts_the_error(tmp_path: object, kind: st
     case = S.draw_case(kind, seed, duration=6.0, **overrides)
     outcome = C.diagnose_case(case, str(tmp_path))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+
+
+@pytest.mark.parametrize("seed", [201, 202])
+def test_an_effort_whose_law_is_not_the_loop_gives_way_to_the_position(tmp_path: object,
+                                                                      seed: int) -> None:
+    """A semi-closed PID loop with backlash logs the table and the drive's command: the law
+    identified on the table's position is not the drive's (it read the motor), and its loop
+    predicts the position worse than a loop fitted to the position. The report says so, keeps
+    both figures, runs on the position and names the backlash there."""
+    case = S.draw_case("backlash", seed, law="pid", effort="N", saturate=False, delay=0,
+                       log_every=1, unit="um", rounded=False, time_column=True, sep=",",
+                       header="names")
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert report["data"]["mode"] == "position"
+    cmp = report["mode_comparison"]
+    assert cmp["chosen"] == "position"
+    rms_e, rms_p = cmp["effort"]["position_rms_m"], cmp["position"]["position_rms_m"]
+    assert rms_p**2 < 0.5 * rms_e**2
+    assert rms_p == pytest.approx(report["position"]["rms_after"], rel=1e-9)
+    assert any("does not reproduce the drive's loop" in w for w in report["warnings"])
+    assert "backlash" in report["effects"]

@@ -519,18 +519,30 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared,
     except DiagnosisError:
         return effort
     n = effort.prep.x.shape[0]
-    rms_e, rms_p = math.sqrt(effort.sse / n), math.sqrt(pos.sse / n)
+    sse_e = effort.sse
+    if effort.train.used_injected:
+        # compared from the reference alone, as the position's loop runs: the effort the law
+        # leaves, fed back as an input, carries the drive's reaction to the very effects the
+        # position's diagnosis looks for (a drift, a lag), and would win the comparison for it
+        y_e, _ = simulate_position(effort.search.final.model, effort.prep)
+        e = effort.prep.x - y_e
+        sse_e = float(np.sum(e**2)) if np.all(np.isfinite(e)) else math.inf
+    rms_e, rms_p = math.sqrt(sse_e / n), math.sqrt(pos.sse / n)
     comparison: dict[str, object] = {
         "rule": f"the position alone when its squared error < {MODE_MARGIN:g} x the effort's",
-        "effort": {"effects": _effects(effort), "position_rms_m": rms_e},
+        "effort": {"effects": _effects(effort), "position_rms_m": rms_e,
+                   "injected_effort_left_out": effort.train.used_injected},
         "position": {"effects": _effects(pos), "position_rms_m": rms_p}}
-    if not pos.finite or (effort.finite and not pos.sse < MODE_MARGIN * effort.sse):
+    if not pos.finite or (effort.finite and not pos.sse < MODE_MARGIN * sse_e):
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     pos.comparison = dict(comparison, chosen="position")
     unit = run.units.get("position", "m")
-    why = (f"the loop of the control law identified from the effort predicts the position "
-           f"worse ({rms_e:.3g} {unit} rms with {', '.join(_effects(effort)) or 'no effect'}) "
+    alone = (" from the reference alone (without the effort the law leaves unexplained)"
+             if effort.train.used_injected else "")
+    why = (f"the loop of the control law identified from the effort predicts the position"
+           f"{alone} worse ({rms_e:.3g} {unit} rms with "
+           f"{', '.join(_effects(effort)) or 'no effect'}) "
            f"than a loop fitted to the position with friction ({rms_p:.3g} {unit}): the law "
            "does not reproduce the drive's loop (an effort logged slower than the loop runs, "
            "a position fed back from another sensor, a delay); the diagnosis runs on the "
