@@ -37,8 +37,9 @@ from fricbench.sysid.diagnose.models import (
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare
 from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
-from fricbench.sysid.diagnose.verdict import Verdict, judge
+from fricbench.sysid.diagnose.verdict import FLOOR_FACTOR, Verdict, judge
 from fricbench.sysid.io import RunData
+from fricbench.sysid.units import position_unit
 
 __all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "INJECTED_EFFORT_SHARE",
            "DiagnosisError", "LAW_MAX_RELERR_PCT"]
@@ -513,11 +514,6 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared,
     fitted to the position with friction. The position decides (the issue's fallback to the
     position-only search), by :data:`MODE_MARGIN`, and the report says why.
     """
-    log("checking the effort's loop against a loop fitted to the position alone")
-    try:
-        pos = _fit_position(run, prep_pos, settings, log, t0)
-    except DiagnosisError:
-        return effort
     n = effort.prep.x.shape[0]
     sse_e = effort.sse
     if effort.train.used_injected:
@@ -527,27 +523,47 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared,
         y_e, _ = simulate_position(effort.search.final.model, effort.prep)
         e = effort.prep.x - y_e
         sse_e = float(np.sum(e**2)) if np.all(np.isfinite(e)) else math.inf
-    rms_e, rms_p = math.sqrt(sse_e / n), math.sqrt(pos.sse / n)
+    rms_e = math.sqrt(sse_e / n)
+    if rms_e <= FLOOR_FACTOR * effort.search.floor:
+        return effort  # at the noise floor: nothing a loop fitted to the position could add
+    log("checking the effort's loop against a loop fitted to the position alone")
+    try:
+        pos = _fit_position(run, prep_pos, settings, log, t0)
+    except DiagnosisError:
+        return effort
+    rms_p = math.sqrt(pos.sse / n)
+    eff: dict[str, object] = {"effects": _effects(effort),
+                              "injected_effort_left_out": effort.train.used_injected}
+    if math.isfinite(rms_e):
+        eff["position_rms_m"] = rms_e
+    else:
+        eff["diverged"] = True
     comparison: dict[str, object] = {
         "rule": f"the position alone when its squared error < {MODE_MARGIN:g} x the effort's",
-        "effort": {"effects": _effects(effort), "position_rms_m": rms_e,
-                   "injected_effort_left_out": effort.train.used_injected},
-        "position": {"effects": _effects(pos), "position_rms_m": rms_p}}
-    if not pos.finite or (effort.finite and not pos.sse < MODE_MARGIN * sse_e):
+        "effort": eff}
+    if not pos.finite:
+        comparison["position"] = {"effects": _effects(pos), "diverged": True}
+        effort.comparison = dict(comparison, chosen="effort")
+        return effort
+    comparison["position"] = {"effects": _effects(pos), "position_rms_m": rms_p}
+    if not pos.sse < MODE_MARGIN * sse_e:
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     pos.comparison = dict(comparison, chosen="position")
-    unit = run.units.get("position", "m")
+    shown = position_unit(run.units.get("position_logged", run.units.get("position", "m")))
+    unit, k = shown.display, shown.per_si
     alone = (" from the reference alone (without the effort the law leaves unexplained)"
              if effort.train.used_injected else "")
+    with_e = ", ".join(_effects(effort)) or "no effect"
+    worse = (f"worse ({k * rms_e:.4g} {unit} rms with {with_e})" if math.isfinite(rms_e)
+             else f"not at all (with {with_e}, its free run diverges)")
     why = (f"the loop of the control law identified from the effort predicts the position"
-           f"{alone} worse ({rms_e:.3g} {unit} rms with "
-           f"{', '.join(_effects(effort)) or 'no effect'}) "
-           f"than a loop fitted to the position with friction ({rms_p:.3g} {unit}): the law "
+           f"{alone} {worse} "
+           f"than a loop fitted to the position with friction ({k * rms_p:.4g} {unit}): the law "
            "does not reproduce the drive's loop (an effort logged slower than the loop runs, "
            "a position fed back from another sensor, a delay); the diagnosis runs on the "
            "position alone (forces per unit mass)")
-    log(f"warning: {why}")
+    log("  the effort's loop is set aside: the diagnosis runs on the position alone")
     pos.warnings.insert(0, why)
     pos.notes = ["forces are reported per unit mass (m/s^2): the effort's law was set aside "
                  "(see the warnings)"]

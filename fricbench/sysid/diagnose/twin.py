@@ -293,7 +293,9 @@ def twin_spec(result: Any, env_id: str, *, effort_gain: float | None = None,
     else:
         gain = _positive("mass", mass)
         mass_si = gain
-        unit_note = (f"no effort in the run: the model is per unit mass, written for a mass of "
+        why = ("the effort's law was set aside (see the diagnosis's warnings)"
+               if result.run.u is not None else "no effort in the run")
+        unit_note = (f"{why}: the model is per unit mass, written for a mass of "
                      f"{gain:g} kg (every force scales with it)")
     peak = (float(np.max(np.abs(prep.u))) if prep.u is not None
             else float(np.max(np.abs(prep.af))))
