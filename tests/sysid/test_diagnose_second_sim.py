@@ -357,3 +357,5 @@ def test_an_effort_whose_law_is_not_the_loop_gives_way_to_the_position(tmp_path:
     assert rms_p == pytest.approx(report["position"]["rms_after"], rel=1e-9)
     assert any("does not reproduce the drive's loop" in w for w in report["warnings"])
     assert "backlash" in report["effects"]
+    # the forces per unit mass come with the mass the effort gives (the effort is in N)
+    assert cmp["effort_mass"]["mass_N_s2_m"] == pytest.approx(case.plant.mass, rel=0.2)

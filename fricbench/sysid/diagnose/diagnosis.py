@@ -660,6 +660,17 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                               (w, share, used), force_unit, settings, log, t0)
             if ctrl_err > LAW_EXACT_PCT or not fit.finite:
                 fit = _better_of(fit, run, prep_pos, settings, log, t0)
+                if fit.mode == "position" and fit.comparison is not None:
+                    # what the per-unit-mass forces are in the effort's unit: the mass the
+                    # inverse dynamics gives with Coulomb friction (none when it is not
+                    # identified: on its zero bound, the effort then says nothing of it)
+                    mass = float(idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))[
+                        CL.I_M])
+                    if mass > 0.0 and math.isfinite(mass):
+                        fit.comparison["effort_mass"] = {
+                            f"mass_{force_unit}_s2_m": mass,
+                            "note": "inverse dynamics with Coulomb friction: a force per unit "
+                                    f"mass times this is the force in {force_unit}"}
     if fit is None:
         fit = _fit_position(run, prep_pos, settings, log, t0)
     prep, mode, fu, linear, search, train = (fit.prep, fit.mode, fit.force_unit, fit.linear,
