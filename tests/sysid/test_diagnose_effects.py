@@ -114,3 +114,19 @@ def test_plugin_effect_joins_the_search_order() -> None:
         effect_registry.unregister("gravity_test")
         get_effect.cache_clear()
     assert "gravity_test" not in effect_names()
+
+
+def test_a_failed_screen_sends_a_friction_level_effect_to_a_real_fit() -> None:
+    """The position search fits an effect whose linearised screen failed (its held-out ratio
+    above SCREEN_FAILED) for real when the effect says its screen cannot be trusted; the others
+    keep their rank; the always-fitted ones are fitted whatever the screen."""
+    from fricbench.sysid.diagnose.search import SCREEN_FAILED, _fitted_anyway
+
+    posdep = "position_dependent_friction"
+    assert get_effect(posdep).fitted_when_screen_fails
+    assert _fitted_anyway(posdep, 1.01 * SCREEN_FAILED)
+    assert not _fitted_anyway(posdep, 0.99 * SCREEN_FAILED)
+    assert not _fitted_anyway("force_offset", 100.0 * SCREEN_FAILED)
+    for name in effect_names():
+        if get_effect(name).always_fitted:
+            assert _fitted_anyway(name, 0.5) and _fitted_anyway(name, 100.0)

@@ -619,6 +619,17 @@ _Variant = tuple[float, _Probe, np.ndarray]
 # with stiction is far from linear), and the fit only refines a period within a few per cent.
 # Effects with Effect.always_fitted are fitted for real at every step, whatever their screen.
 
+SCREEN_FAILED = 2.0
+"""A linearised screen that predicts the held-out error to grow by more than this factor has
+left the range where the effect acts linearly (an effect at a small amplitude changes the error
+little either way): effects with ``Effect.fitted_when_screen_fails`` are then fitted for real."""
+
+
+def _fitted_anyway(name: str, ratio: float) -> bool:
+    """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``)."""
+    effect = get_effect(name)
+    return effect.always_fitted or (effect.fitted_when_screen_fails and ratio > SCREEN_FAILED)
+
 
 def _fit_starts(variants: list[_Variant], name: str, b: Bounds) -> list[GreyBox]:
     """Starts of the real fits of a force effect: its best screened variants.
@@ -775,10 +786,10 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # and a periodic force, whose screen is no better (its linearised response to a
         # ripple misses how the ripple moves the stops of a stick-slip motion)
         chosen += [kv for kv in ranked[n_confirm:]
-                   if get_effect(kv[0]).always_fitted or kv[0] in runners_up]
+                   if _fitted_anyway(kv[0], kv[1][0]) or kv[0] in runners_up]
         for name, (ratio, _, _) in chosen:
             if (ratio >= 1.0 and len(steps) > 1
-                    and name not in runners_up and not get_effect(name).always_fitted):
+                    and name not in runners_up and not _fitted_anyway(name, ratio)):
                 continue
             heldout = 0.0
             fits: dict[int, PositionFitResult] = {}

@@ -85,6 +85,10 @@ class Effect(ABC):
         Starts of its real position fits (more where the error surface is multimodal).
     always_fitted : bool
         Fitted for real at every step of the position search, whatever its linearised screen.
+    fitted_when_screen_fails : bool
+        Fitted for real when its linearised screen fails (a held-out error ratio above
+        :data:`~fricbench.sysid.diagnose.search.SCREEN_FAILED`): a friction level that changes
+        is as far from linear as stiction, and a screen that far off says nothing of it.
     refits_mass : bool
         An output effect that changes the dynamics between force and motion (a compliant
         coupling): where the loop is the law identified from the effort, the mass and damping
@@ -106,6 +110,7 @@ class Effect(ABC):
     friction: ClassVar[bool] = False
     n_starts: ClassVar[int] = 1
     always_fitted: ClassVar[bool] = False
+    fitted_when_screen_fails: ClassVar[bool] = False
     refits_mass: ClassVar[bool] = False
 
     # -- parameters ----------------------------------------------------------------------------
