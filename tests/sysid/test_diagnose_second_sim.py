@@ -345,11 +345,17 @@ def test_an_effort_whose_law_is_not_the_loop_gives_way_to_the_position(tmp_path:
     case = S.draw_case("backlash", seed, law="pid", effort="N", saturate=False, delay=0,
                        log_every=1, unit="um", rounded=False, time_column=True, sep=",",
                        header="names")
-    outcome = C.diagnose_case(case, str(tmp_path))
+    # validated on itself: the validation run is read as the training run was (without its
+    # effort, whose first sample would start the per-unit-mass loop in the drive's unit)
+    same = os.path.join(str(tmp_path), f"backlash-{seed}.csv")
+    outcome = C.diagnose_case(case, str(tmp_path), extra_args=("--validate", same))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
     report = outcome.report
     assert report is not None
     assert report["data"]["mode"] == "position"
+    for key in ("rms_before", "rms_after"):
+        assert report["validation"]["position"][key] == pytest.approx(report["position"][key],
+                                                                      rel=1e-9)
     cmp = report["mode_comparison"]
     assert cmp["chosen"] == "position"
     rms_e, rms_p = cmp["effort"]["position_rms_m"], cmp["position"]["position_rms_m"]

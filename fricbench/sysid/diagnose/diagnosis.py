@@ -682,7 +682,12 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     tf = fit_linear_tf(prep) if compare_tf else None
     val_eval = None
     if validate is not None:
-        prep_v = prepare(validate, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum)
+        # a model per unit mass (position mode) cannot use an effort in the drive's unit: the
+        # validation run is read without it, as the training run was (its first effort would
+        # otherwise start the loop's integrator in the wrong unit)
+        v_run = (dataclasses.replace(validate, u=None)
+                 if mode == "position" and validate.u is not None else validate)
+        prep_v = prepare(v_run, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum)
         law_v = None
         if mode == "effort" and prep_v.u is not None:
             # the plant is what is validated; the loop is the validation run's own: its law
