@@ -34,13 +34,19 @@ DIVERGED_SPEED = 1.0e6
 def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.ndarray,
              t: np.ndarray, x0: float, v0: float, u_init: np.ndarray, y_init: np.ndarray,
              noise: np.ndarray, y_out: np.ndarray, u_out: np.ndarray,
-             y2_out: np.ndarray) -> int:
+             y2_out: np.ndarray, positional: bool, a2: np.ndarray, c2: np.ndarray,
+             r2: np.ndarray, g_init: np.ndarray, i_init: float) -> int:
     n = r.shape[0]
     na = a.shape[0]
     nc = c.shape[0]
+    na2 = a2.shape[0]
     pc = PL.constants(p)
-    # histories: uh[i] = u[k-1-i], yh[j] = y_fb[k-j] (yh[0] is filled each sample)
+    # histories: uh[i] = u[k-1-i] (q[k-1-i] in positional form), gh[i] = g[k-1-i],
+    # yh[j] = y_fb[k-j] (yh[0] is filled each sample)
     uh = u_init.copy()
+    gh = g_init.copy()
+    integ = i_init
+    q = 0.0
     yh = np.empty(max(nc, 1))
     for j in range(nc):
         yh[j] = y_init[j] if j < y_init.shape[0] else y_init[-1]
@@ -65,11 +71,29 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
         if nc > 0:
             yh[0] = y_fb
         # u[k] = sum_i a_i u[k-i] + r[k] + sum_j c_j y_fb[k-j] + w[k]
-        u = r[k] + w[k]
+        u = r[k]
         for i in range(na):
             u += a[i] * uh[i]
         for j in range(nc):
             u += c[j] * yh[j]
+        if positional:
+            # u = q + I: the recursion runs on the proportional part q, the integral is a
+            # state held while its increment pushes further into the limit (clamping)
+            q = u
+            g = r2[k]
+            for i in range(na2):
+                g += a2[i] * gh[i]
+            for j in range(c2.shape[0]):
+                g += c2[j] * yh[j]
+            u = q + integ + w[k]
+            if not ((u > pc.i_max and g > 0.0) or (u < -pc.i_max and g < 0.0)):
+                integ += g
+            for i in range(na2 - 1, 0, -1):
+                gh[i] = gh[i - 1]
+            if na2 > 0:
+                gh[0] = g
+        else:
+            u += w[k]
         # a drive that clips its command logs the clipped value, and the law identified from
         # that log recurses on it (a velocity-form law, which winds up no integrator)
         if u > pc.i_max:
@@ -79,12 +103,13 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
         for i in range(na - 1, 0, -1):
             uh[i] = uh[i - 1]
         if na > 0:
-            uh[0] = u
+            uh[0] = q if positional else u
         u_out[k] = u
         u_app, _ = PL.actuate(pc, buf, 0, u)
         x, v, z, play, d, dv, theta, _ = PL.advance(pc, x, v, z, play, d, dv, theta,
                                                     pc.kt * u_app)
-        if not (math.isfinite(x) and math.isfinite(d) and abs(v) < DIVERGED_SPEED):
+        if not (math.isfinite(x) and math.isfinite(d) and abs(v) < DIVERGED_SPEED
+                and math.isfinite(integ)):
             for kk in range(k + 1, n):
                 y_out[kk] = np.nan
                 y2_out[kk] = np.nan
@@ -100,17 +125,21 @@ _run_one = numba.njit(cache=True, fastmath=FASTMATH)(_run_one)
 def _run_batch(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np.ndarray,
                t: np.ndarray, x0: float, v0: float, U0: np.ndarray, y_init: np.ndarray,
                noise: np.ndarray, Y: np.ndarray, U: np.ndarray, Y2: np.ndarray,
-               status: np.ndarray) -> None:
+               status: np.ndarray, POS: np.ndarray, A2: np.ndarray, C2: np.ndarray,
+               R2: np.ndarray, G0: np.ndarray, I0: np.ndarray) -> None:
     for i in numba.prange(P.shape[0]):
         status[i] = _run_one(P[i], A[i], C[i], R[i], w, t, x0, v0, U0[i], y_init, noise, Y[i],
-                             U[i], Y2[i])
+                             U[i], Y2[i], POS[i], A2[i], C2[i], R2[i], G0[i], I0[i])
 
 
 def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray,
                    t: np.ndarray, ts: float, *, n_sub: int, x0: float, v0: float,
                    u_init: np.ndarray, y_init: np.ndarray, w: np.ndarray | None = None,
                    noise: np.ndarray | None = None, quant: float = 0.0,
-                   other: np.ndarray | None = None,
+                   other: np.ndarray | None = None, positional: np.ndarray | None = None,
+                   a2: np.ndarray | None = None, c2: np.ndarray | None = None,
+                   r2: np.ndarray | None = None, g_init: np.ndarray | None = None,
+                   i_init: np.ndarray | None = None,
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Simulate ``N`` parameter sets of the closed loop in parallel (one row each).
 
@@ -146,6 +175,15 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     other : ndarray, shape (N, K), optional
         Filled with the other encoder's reading (the motor's when the row logs the table, the
         table's when it logs the motor: ``log_motor``), with the same noise, unquantised.
+    positional : ndarray of bool, shape (N,), optional
+        Rows whose law is in positional form ``u = q + I`` (``a``, ``c``, ``r``, ``u_init``
+        then give the proportional part ``q``): the integral ``I`` starts at ``i_init`` and
+        grows by ``g[k] = sum_i a2_i g[k-i] + r2[k] + sum_j c2_j y_fb[k-j]`` (history
+        ``g_init``) except while the command clips and ``g`` pushes further into the limit
+        (clamping anti-windup). Other rows recurse on their clipped output (velocity form).
+    a2, c2, r2, g_init, i_init : ndarray, optional
+        Shapes (N, na2), (N, nc2 <= nc), (N, K), (N, na2), (N,); required with
+        ``positional``.
 
     Returns
     -------
@@ -181,8 +219,27 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
                          f"got {other.dtype} {other.shape}")
     Y2 = np.empty((n_rows, n)) if other is None else other
     status = np.zeros(n_rows, dtype=np.int64)
+    if positional is None or not np.any(positional):
+        pos = np.zeros(n_rows, dtype=np.bool_)
+        A2, C2, G0 = (np.zeros((n_rows, 0)),) * 3
+        R2, I0 = np.zeros((n_rows, 1)), np.zeros(n_rows)
+    else:
+        pos = np.ascontiguousarray(positional, dtype=np.bool_).reshape(n_rows)
+        if a2 is None or c2 is None or r2 is None or g_init is None or i_init is None:
+            raise ValueError("positional rows need a2, c2, r2, g_init and i_init")
+        A2 = np.ascontiguousarray(np.atleast_2d(a2), dtype=float)
+        C2 = np.ascontiguousarray(np.atleast_2d(c2), dtype=float)
+        R2 = np.ascontiguousarray(np.atleast_2d(r2), dtype=float)
+        G0 = np.ascontiguousarray(np.atleast_2d(g_init), dtype=float)
+        I0 = np.ascontiguousarray(i_init, dtype=float).reshape(n_rows)
+        if (A2.shape != G0.shape or A2.shape[0] != n_rows or C2.shape[0] != n_rows
+                or C2.shape[1] > C.shape[1] or R2.shape != (n_rows, n)):
+            raise ValueError(f"a2, c2, r2, g_init: shapes {A2.shape}, {C2.shape}, {R2.shape}, "
+                             f"{G0.shape} do not match {n_rows} rows of {n} samples with "
+                             f"nc = {C.shape[1]}")
     _run_batch(P, A, C, R, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
-               np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status)
+               np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status, pos, A2, C2,
+               R2, G0, I0)
     return Y, U, status
 
 
