@@ -249,3 +249,92 @@ def test_backward_elimination_drops_an_effect_the_others_made_unnecessary():
     spurious.plant[CL.I_PDG] = 0.5
     found = _redundant_effect(spurious, prep, b, settings, lambda _s: None)
     assert found is not None and found[0] == "position_dependent_friction"
+
+
+def _cascade_positional_reference(ctrl: CascadeController, inp: LoopInputs, y: np.ndarray,
+                                  limit: float) -> np.ndarray:
+    """The cascade law in its textbook positional form, sample by sample, with a clamping
+    anti-windup, on a given fed-back position: an oracle written apart from
+    :meth:`CascadeController.positional` and the simulator's recursion."""
+    ts, p = inp.ts, ctrl.vel_pole
+    xr = np.concatenate([inp.xr[0] - inp.vr[0] * ts * np.array([2.0, 1.0]), inp.xr])
+    vr = np.diff(xr) / ts  # backward differences, vr[k] at sample k - 1
+    ar = np.diff(vr) / ts
+    y_prev = inp.x0 - inp.v0 * ts
+    y_prev2 = y_prev - inp.v0 * ts
+    d_f = ctrl.kvff * vr[0] - (y_prev - y_prev2) / ts  # the filter settled before the run
+    q0 = ctrl.wv * (ctrl.kp * (inp.xr[0] - inp.x0) + ctrl.kvff * inp.vr[0]
+                    - (inp.x0 - y_prev) / ts)
+    integ = inp.u0 - q0  # in the effort's unit: wv times the cascade's integral
+    out = np.empty(y.shape[0])
+    for k in range(y.shape[0]):
+        e = inp.xr[k] - y[k]
+        d = ctrl.kvff * vr[k + 1] - (y[k] - y_prev) / ts
+        d_f = p * d_f + (1.0 - p) * d
+        e_v = ctrl.kp * e + d_f
+        u = ctrl.wv * e_v + integ + ctrl.kaff * ar[k]
+        step = ctrl.wv * ts * (ctrl.ki * e_v + ctrl.kpi * e)
+        if not ((u > limit and step > 0.0) or (u < -limit and step < 0.0)):
+            integ += step
+        out[k] = min(max(u, -limit), limit)
+        y_prev = y[k]
+    return out
+
+
+@pytest.mark.parametrize("ctrl", [
+    CascadeController(wv=300.0, kp=40.0, ki=20.0, kvff=0.9, kaff=0.5, vel_pole=0.3),
+    CascadeController(wv=200.0, kp=50.0, kvff=1.0, kpi=3000.0, vel_pole=0.6, kaff=0.2),
+    CascadeController(wv=250.0, kp=30.0, ki=15.0, kvff=1.0),
+], ids=["cascade-filtered", "pid", "cascade"])
+def test_a_clipping_parametric_loop_holds_its_integral(ctrl: CascadeController) -> None:
+    """A parametric loop whose drive clips runs in positional form with clamping anti-windup
+    (as drives and LinuxCNC's pid do): its command is the oracle's on the same fed-back
+    position, to rounding; unclipped, the loop is the velocity-form law's."""
+    ref = _reference(3.0)
+    vr = np.gradient(ref.x, ref.ts)
+    inp = LoopInputs(t=ref.t, ts=ref.ts, xr=ref.x, vr=vr, ar=np.gradient(vr, ref.ts),
+                     x0=0.0, v0=0.0, u0=0.0)
+    p = CL.default_plant(1.0, 0.5)
+    p[CL.I_FC] = 0.3
+    free, _, _ = simulate_inputs([GreyBox(ctrl, p, ("coulomb_friction",))], inp)
+    big = p.copy()
+    big[CL.I_IMAX] = 1e9  # positional form, never clipped
+    y_pos, u_pos, _ = simulate_inputs([GreyBox(ctrl, big, ("coulomb_friction",))], inp)
+    assert np.max(np.abs(y_pos[0] - free[0])) < 1e-3 * np.max(np.abs(ref.x))
+    np.testing.assert_allclose(u_pos[0], _cascade_positional_reference(ctrl, inp, y_pos[0], 1e9),
+                               rtol=1e-9, atol=1e-9)
+    clip = p.copy()
+    clip[CL.I_IMAX] = 0.5 * float(np.max(np.abs(u_pos[0])))
+    y, u, status = simulate_inputs([GreyBox(ctrl, clip, ("coulomb_friction",))], inp)
+    assert status[0] == 0
+    assert np.mean(np.abs(u[0]) >= clip[CL.I_IMAX] * (1 - 1e-12)) > 0.01  # it did clip
+    np.testing.assert_allclose(u[0], _cascade_positional_reference(ctrl, inp, y[0],
+                                                                   clip[CL.I_IMAX]),
+                               rtol=1e-9, atol=1e-9)
+
+
+def test_a_loop_faster_than_the_log_is_its_fine_run_at_the_logged_samples() -> None:
+    """``n_loop``: the loop runs on the reference interpolated between the logged samples and
+    the outputs are its values at those samples; a bad ``n_loop`` is refused by name."""
+    ref = _reference(2.0, ts=1e-2)
+    vr = np.gradient(ref.x, ref.ts)
+    inp = LoopInputs(t=ref.t, ts=ref.ts, xr=ref.x, vr=vr, ar=np.gradient(vr, ref.ts),
+                     x0=0.0, v0=0.0, u0=0.0, n_loop=10)
+    fine = inp.fine
+    assert fine.ts == pytest.approx(1e-3) and fine.n_loop == 1
+    np.testing.assert_allclose(fine.xr[::10], ref.x, atol=1e-15)
+    # between the samples the monotone interpolant stays within its neighbours
+    lo = np.minimum(ref.x[:-1], ref.x[1:]).repeat(10)
+    hi = np.maximum(ref.x[:-1], ref.x[1:]).repeat(10)
+    assert np.all((fine.xr[:-1] >= lo - 1e-15) & (fine.xr[:-1] <= hi + 1e-15))
+    m = GreyBox(CascadeController(wv=200.0, kp=40.0, ki=10.0, kvff=1.0),
+                CL.default_plant(1.0, 0.2))
+    y, u, _ = simulate_inputs([m], inp)
+    y_f, u_f, _ = simulate_inputs([m], fine)
+    assert y.shape == (1, ref.x.shape[0])
+    np.testing.assert_array_equal(y[0], y_f[0, ::10])
+    np.testing.assert_array_equal(u[0], u_f[0, ::10])
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match="n_loop"):
+            LoopInputs(t=ref.t, ts=ref.ts, xr=ref.x, vr=vr, ar=vr, x0=0.0, v0=0.0,
+                       n_loop=bad)  # type: ignore[arg-type]

@@ -127,14 +127,16 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     jac_rows : ndarray or None
         Jacobian of the fit, one row per parameter.
     """
-    starts = [GreyBox(c, CL.default_plant(1.0, 0.0)) for c in starting_controllers(prep.ts)]
+    starts = [GreyBox(c, CL.default_plant(1.0, 0.0))
+              for c in starting_controllers(prep.inputs.loop_ts)]
     ys, _, status = simulate_models(starts, prep)
     sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
                     for y, s in zip(ys, status, strict=True)])
     order = np.argsort(sse)[:n_best]
     f0 = max(float(np.max(np.abs(prep.inputs.ar))), 1e-6)
     b0 = Bounds(force=f0, stroke=max(prep.stroke, 1e-9), v_max=max(prep.v_max, 1e-9),
-                duration=prep.duration, ts=prep.ts, noise=prep.noise.rms)
+                duration=prep.duration, ts=prep.ts, noise=prep.noise.rms,
+                loop_ts=prep.inputs.loop_ts)
     best = None
     for i in order:
         if not np.isfinite(sse[i]):
@@ -148,7 +150,8 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
         raise ValueError("no linear closed-loop model could be simulated stably on this run")
     u_virtual = cascade_effort(best.model.controller, prep)
     bounds = Bounds(force=max(force_scale(u_virtual, prep.ts), f0), stroke=b0.stroke,
-                    v_max=b0.v_max, duration=b0.duration, ts=b0.ts, noise=b0.noise)
+                    v_max=b0.v_max, duration=b0.duration, ts=b0.ts, noise=b0.noise,
+                    loop_ts=b0.loop_ts)
     return best.model, best.y, bounds, best.jac_rows
 
 
@@ -174,35 +177,69 @@ class DriveLimit:
     sse_ratio : float
         Squared position error with the limit over the error without it (loop and Coulomb
         friction refitted both ways).
+    model : GreyBox or None
+        The loop, Coulomb force and limit fitted together.
     """
 
     level: float
     clipped_share: float
     sse_ratio: float
+    model: GreyBox | None = None
+
+
+LIMIT_START_FRICTION = (0.5, 1.0)
+"""Coulomb forces of the drive limit's grid of starts, in units of the reference's largest
+acceleration (see :func:`fit_drive_limit`)."""
+
+LIMIT_START_LEVEL = (1.5, 3.0)
+"""Limits of the grid of starts, in units of the reference's largest acceleration."""
 
 
 def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
-                    max_iter: int = 15) -> DriveLimit | None:
+                    max_iter: int = 15, n_best: int = 3) -> DriveLimit | None:
     """The drive's command limit, when a run without an effort shows one; else None.
 
     A drive that clips its current (a rapid move, a reversal against friction) lags the
     reference in a way no linear loop with friction reproduces: without the effort nothing
-    says it clipped. From ``fit``, the loop and a Coulomb force fitted together
-    (:func:`friction_aware_fit`), they are fitted again with a limit on the loop's command
-    (starts at 1 and 2 times the reference's largest acceleration: a drive sized for the
-    motion; the loop's family kept); the limit is kept when
-    the error falls below :data:`LIMIT_MARGIN` of the error without it and the fitted loop
-    clips at least :data:`LIMIT_MIN_CLIPPED` of the samples. Like the loop gains it is a
-    property of the loop the effects are then judged with, not an effect.
+    says it clipped. The loop, a Coulomb force and a limit on the loop's command are fitted
+    together from ``fit`` (the loop and a Coulomb force fitted without a limit,
+    :func:`friction_aware_fit`) with the limit at 1 and 2 times the reference's largest
+    acceleration (a drive sized for the motion), and from the best ``n_best`` of a grid: the
+    standard loops of both families and ``fit``'s with a Coulomb force of
+    :data:`LIMIT_START_FRICTION` and a limit of :data:`LIMIT_START_LEVEL` times that
+    acceleration. A drive that clips against a friction as large as the motion's own
+    acceleration lags so far that a fit without a limit finds no friction at all (the loop
+    alone explains more): ``fit`` is then no start for the limit. The limit is kept when the
+    error falls below :data:`LIMIT_MARGIN` of the error without it and the fitted loop clips
+    at least :data:`LIMIT_MIN_CLIPPED` of the samples. Like the loop gains it is a property of
+    the loop the effects are then judged with, not an effect.
     """
     a_ref = float(np.max(np.abs(prep.inputs.ar)))
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None
     limit_param = Param(CL.I_IMAX, True, 0.5 * a_ref, 100.0 * a_ref, 1.0)
-    fits = []
+    starts = []
     for factor in (1.0, 2.0):
         m = fit.model.copy()
         m.plant[CL.I_IMAX] = factor * a_ref
+        starts.append(m)
+    loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
+             + list(starting_pid_controllers(prep.inputs.loop_ts)))
+    grid = []
+    for ctrl in loops:
+        for f_fc in LIMIT_START_FRICTION:
+            for f_lim in LIMIT_START_LEVEL:
+                # no damping: the one fitted without a limit stands in for the clipping's lag
+                m = GreyBox(ctrl, CL.default_plant(1.0, 0.0), ("coulomb_friction",))
+                m.plant[CL.I_FC] = f_fc * a_ref
+                m.plant[CL.I_IMAX] = f_lim * a_ref
+                grid.append(m)
+    ys, _, status = simulate_models(grid, prep)
+    sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
+                    for y, s in zip(ys, status, strict=True)])
+    starts += [grid[i] for i in np.argsort(sse)[:n_best] if np.isfinite(sse[i])]
+    fits = []
+    for m in starts:
         params = position_params(m, bounds, controller=True) + [limit_param]
         fits.append(PositionFit(prep, params).run(m, max_iter=max_iter))
     best = min(fits, key=lambda r: r.cost)
@@ -215,7 +252,7 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
     ratio = float(best.cost / fit.cost)
     if ratio < LIMIT_MARGIN and clipped >= LIMIT_MIN_CLIPPED:
-        return DriveLimit(level, clipped, ratio)
+        return DriveLimit(level, clipped, ratio, best.model)
     return None
 
 
@@ -343,8 +380,8 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     a cascade (the ``greybox`` predictor, which models the benchmark's cascade axes).
     """
     f0 = 0.3 * bounds.force
-    cascades = starting_controllers(prep.ts)
-    pids = starting_pid_controllers(prep.ts) if pid else []
+    cascades = starting_controllers(prep.inputs.loop_ts)
+    pids = starting_pid_controllers(prep.inputs.loop_ts) if pid else []
     starts = [linear] + [linear.copy(controller=c) for c in cascades + pids]
     starts = [m.copy(effects=("coulomb_friction",)) for m in starts]
     for m in starts:

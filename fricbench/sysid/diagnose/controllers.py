@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
+from scipy.interpolate import PchipInterpolator
 from scipy.signal import butter, lfilter
 
 from fricbench.sysid.diagnose.leastsq import matvec, solve_ls, sumsq
@@ -43,6 +45,11 @@ class LoopInputs:
         Initial position (m) and velocity (m/s) of the axis.
     u0 : float
         Initial effort (effort unit, or m/s^2 for the cascade).
+    n_loop : int
+        Loop periods per logged sample: the controller of a simulation runs ``n_loop`` times
+        faster than the log (1: at the log's rate). A drive's loop often runs at 1 kHz or
+        faster while its log is written at 100 Hz; a discrete loop at the log's rate cannot
+        reproduce it (see :attr:`fine`).
     """
 
     t: np.ndarray
@@ -53,10 +60,74 @@ class LoopInputs:
     x0: float
     v0: float
     u0: float = 0.0
+    n_loop: int = 1
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n_loop, bool) or not isinstance(self.n_loop, (int, np.integer)) \
+                or self.n_loop < 1:
+            raise ValueError(f"n_loop={self.n_loop!r}: expected an integer >= 1 (loop periods "
+                             "per logged sample)")
+
+    @property
+    def loop_ts(self) -> float:
+        """The controller's period, s."""
+        return self.ts / self.n_loop
+
+    @cached_property
+    def fine(self) -> LoopInputs:
+        """These inputs at the loop's rate (``n_loop`` = 1): the logged reference
+        interpolated by a monotone cubic (PCHIP: no overshoot at a step, unlike a spline),
+        its velocity and acceleration by central differences as :func:`prepare` computes them
+        on a log. Logged sample ``k`` is loop sample ``k n_loop``."""
+        if self.n_loop == 1:
+            return self
+        n = self.t.shape[0]
+        t = self.t[0] + np.arange((n - 1) * self.n_loop + 1) * self.loop_ts
+        xr = PchipInterpolator(self.t, self.xr)(t)
+        vr = np.gradient(xr, self.loop_ts)
+        ar = np.gradient(vr, self.loop_ts)
+        return LoopInputs(t=t, ts=self.loop_ts, xr=xr, vr=vr, ar=ar, x0=self.x0, v0=self.v0,
+                          u0=self.u0)
 
     def history(self, n: int) -> np.ndarray:
         """Positions ``x[-1] .. x[-n]`` before the run (constant-velocity extrapolation)."""
         return self.x0 - self.v0 * self.ts * np.arange(1, n + 1)
+
+
+def _reference_taps(t: np.ndarray, inp: LoopInputs) -> np.ndarray:
+    """``sum_j t_j x_r[k-j]``, the reference before the run at constant velocity."""
+    n = inp.t.shape[0]
+    lag = t.shape[0] - 1
+    back = np.arange(lag, 0, -1)
+    xr = np.concatenate([inp.xr[0] - back * inp.vr[0] * inp.ts, inp.xr])
+    r = np.zeros(n)
+    for j in range(lag + 1):
+        # tap j multiplies the sample k - j
+        r += t[j] * xr[lag - j: lag - j + n]
+    return r
+
+
+@dataclass(frozen=True)
+class PositionalLaw:
+    """A law in positional form, ``u[k] = q[k] + I[k]``, for the simulator's clamping
+    anti-windup (see :meth:`CascadeController.positional`).
+
+    ``q[k] = sum_i a_i q[k-i] + r[k] + sum_j c_j x[k-j]`` and the integral's increment
+    ``g[k] = sum_i a2_i g[k-i] + r2[k] + sum_j c2_j x[k-j]``; ``q_init``, ``g_init`` their
+    values before the run (latest first), ``i_init`` the integral at the first sample,
+    ``y_init`` the positions before the run.
+    """
+
+    a: np.ndarray
+    c: np.ndarray
+    r: np.ndarray
+    q_init: np.ndarray
+    a2: np.ndarray
+    c2: np.ndarray
+    r2: np.ndarray
+    g_init: np.ndarray
+    i_init: float
+    y_init: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -160,15 +231,7 @@ class CascadeController:
         (:meth:`difference_form`)."""
         ts = inp.ts
         a, c, t = self.difference_form(ts)
-        # the reference before the run: at constant velocity
-        n = inp.t.shape[0]
-        lag = t.shape[0] - 1
-        back = np.arange(lag, 0, -1)
-        xr = np.concatenate([inp.xr[0] - back * inp.vr[0] * ts, inp.xr])
-        r = np.zeros(n)
-        for j in range(lag + 1):
-            # tap j multiplies the sample k - j
-            r += t[j] * xr[lag - j: lag - j + n]
+        r = _reference_taps(t, inp)
         y_init = inp.history(3)
         # the two efforts before the run, at constant velocity (the filter settled, no
         # reference acceleration): the integral reaches u0 at the first sample, so one and two
@@ -184,6 +247,43 @@ class CascadeController:
         u_init = np.array([self.wv * (ev1 - step1) + inp.u0,
                            self.wv * (ev2 - step1 - step2) + inp.u0])
         return a, c, r, u_init, y_init
+
+    def positional(self, inp: LoopInputs) -> PositionalLaw:
+        """The law in positional form with its integral as a state, for a drive that clips.
+
+        ``u[k] = q[k] + I[k]``, the proportional part ``q F = wv (kp F E + (1 - p) D) +
+        kaff F A_r`` and the integral's increment ``g F = wv ts ((ki kp + kpi) F E +
+        ki (1 - p) D)`` (``I[k+1] = I[k] + g[k]``), both with the filter ``F = 1 - p z^-1``
+        and the signals of :meth:`difference_form`, whose law this is as long as nothing
+        clips. When the command clips, the simulator holds the integral while its increment
+        pushes further into the limit (clamping anti-windup, as drives and LinuxCNC's ``pid``
+        do): :meth:`arx`'s velocity form instead restarts from the limit, which a positional
+        controller does not.
+        """
+        ts, p = inp.ts, self.vel_pole
+        filt = np.array([1.0, -p])
+        diff = np.array([1.0, -1.0])
+        gi = self.ki * self.kp + self.kpi
+        # proportional part: taps on x (c) and on x_r (t), recursion a = [p]
+        c = -self.wv * (self.kp * filt + (1.0 - p) * diff / ts)
+        t = np.zeros(4)
+        t[:2] += self.wv * (self.kp * filt + (1.0 - p) * self.kvff * diff / ts)
+        t += self.kaff * np.convolve(np.convolve(diff, diff), filt) / (ts * ts)
+        # the integral's increment
+        c2 = -self.wv * (ts * gi * filt + self.ki * (1.0 - p) * diff)
+        t2 = self.wv * (ts * gi * filt + self.ki * (1.0 - p) * self.kvff * diff)
+        r, y_init = _reference_taps(t, inp), inp.history(3)
+        r2 = _reference_taps(t2, inp)
+        # the state before the run at constant velocity, the filter settled, no acceleration
+        e1 = inp.xr[0] - inp.vr[0] * ts - y_init[0]
+        ev1 = self.kp * e1 + self.kvff * inp.vr[0] - (y_init[0] - y_init[1]) / ts
+        q1 = self.wv * ev1
+        g1 = self.wv * ts * (self.ki * ev1 + self.kpi * e1)
+        e0 = inp.xr[0] - inp.x0
+        q0 = self.wv * (self.kp * e0 + self.kvff * inp.vr[0] - (inp.x0 - y_init[0]) / ts)
+        return PositionalLaw(a=np.array([p]), c=c, r=r, q_init=np.array([q1]),
+                             a2=np.array([p]), c2=c2, r2=r2, g_init=np.array([g1]),
+                             i_init=inp.u0 - q0, y_init=y_init)
 
     def to_dict(self) -> dict[str, float]:
         """JSON-ready parameters with units in the keys."""

@@ -23,7 +23,12 @@ import numpy as np
 from scipy import optimize, signal
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.controllers import ArxController, CascadeController, LoopInputs
+from fricbench.sysid.diagnose.controllers import (
+    ArxController,
+    CascadeController,
+    LoopInputs,
+    PositionalLaw,
+)
 from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.leastsq import bounded_least_squares, matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
@@ -96,16 +101,41 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
                     w: np.ndarray | None = None, noise: np.ndarray | None = None,
                     quant: float = 0.0, other: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`simulate_models` on bare loop inputs (a reference without a measured run)."""
+    """:func:`simulate_models` on bare loop inputs (a reference without a measured run).
+
+    With ``inp.n_loop`` > 1 the loop runs on :attr:`LoopInputs.fine` (``w`` and ``noise``
+    held over each logged period) and the outputs are its values at the logged samples.
+    """
+    if inp.n_loop > 1:
+        k = inp.n_loop
+        f = inp.fine
+        n_f = f.t.shape[0]
+        hold = (lambda s: None if s is None else np.repeat(np.asarray(s, dtype=float), k)[:n_f])
+        o_f = None if other is None else np.empty((other.shape[0], n_f))
+        y, u, status = simulate_inputs(models, f, n_sub, hold(w), hold(noise), quant, o_f)
+        if other is not None and o_f is not None:
+            other[...] = o_f[:, ::k]
+        return np.ascontiguousarray(y[:, ::k]), np.ascontiguousarray(u[:, ::k]), status
     n = int(inp.t.shape[0])
     cache: dict[object, tuple] = {}
     parts = []
+    laws: list[PositionalLaw | None] = []
     for m in models:
+        # a parametric loop whose drive clips runs in positional form (its integral held
+        # while clipped); an identified law recurses on the clipped effort it was fitted to
+        pos = (isinstance(m.controller, CascadeController)
+               and bool(np.isfinite(m.plant[CL.I_IMAX])))
         # rows of a finite-difference Jacobian often share the controller: convert it once
-        key = m.controller if isinstance(m.controller, CascadeController) else id(m.controller)
+        key = ((m.controller, pos) if isinstance(m.controller, CascadeController)
+               else id(m.controller))
         if key not in cache:
-            cache[key] = m.controller.arx(inp)
-        parts.append(cache[key])
+            if pos:
+                law = m.controller.positional(inp)  # type: ignore[union-attr]
+                cache[key] = ((law.a, law.c, law.r, law.q_init, law.y_init), law)
+            else:
+                cache[key] = (m.controller.arx(inp), None)
+        parts.append(cache[key][0])
+        laws.append(cache[key][1])
     na = max(p[0].shape[0] for p in parts)
     nc = max(p[1].shape[0] for p in parts)
     n_rows = len(models)
@@ -120,9 +150,25 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
         R[i] = r
         U0[i, : u0.shape[0]] = u0
     P = np.stack([m.plant for m in models])
+    extra: dict[str, np.ndarray] = {}
+    if any(law is not None for law in laws):
+        na2 = max(law.a2.shape[0] for law in laws if law is not None)
+        nc2 = max(law.c2.shape[0] for law in laws if law is not None)
+        extra = {"positional": np.array([law is not None for law in laws]),
+                 "a2": np.zeros((n_rows, na2)), "c2": np.zeros((n_rows, nc2)),
+                 "r2": np.zeros((n_rows, n)), "g_init": np.zeros((n_rows, na2)),
+                 "i_init": np.zeros(n_rows)}
+        for i, law in enumerate(laws):
+            if law is None:
+                continue
+            extra["a2"][i, : law.a2.shape[0]] = law.a2
+            extra["c2"][i, : law.c2.shape[0]] = law.c2
+            extra["r2"][i] = law.r2
+            extra["g_init"][i, : law.g_init.shape[0]] = law.g_init
+            extra["i_init"][i] = law.i_init
     return CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
                              v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
-                             quant=quant, other=other)
+                             quant=quant, other=other, **extra)  # type: ignore[arg-type]
 
 
 def simulate_position(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,
@@ -148,7 +194,14 @@ def cascade_effort(ctrl: CascadeController | ArxController, prep: Prepared,
     ndarray, shape (K,)
     """
     xm = prep.x if x is None else x
-    a, c, r, u_init, y_init = ctrl.arx(prep.inputs)
+    inp = prep.inputs
+    if inp.n_loop > 1:
+        # a loop faster than the log reads the position between the logged samples too
+        f = inp.fine
+        xm = np.interp(f.t, inp.t, xm)
+        a, c, r, u_init, y_init = ctrl.arx(f)
+    else:
+        a, c, r, u_init, y_init = ctrl.arx(inp)
     nc = c.shape[0]
     # xpad[nc - 1 + k] = x[k]; the samples before the run come from y_init = x[-1], x[-2], ...
     xpad = np.concatenate([y_init[: nc - 1][::-1], xm])
@@ -158,7 +211,7 @@ def cascade_effort(ctrl: CascadeController | ArxController, prep: Prepared,
     den = np.concatenate([[1.0], -a])
     zi = signal.lfiltic([1.0], den, u_init)
     out, _ = signal.lfilter([1.0], den, fb, zi=zi)
-    return out
+    return out[:: inp.n_loop] if inp.n_loop > 1 else out
 
 
 # -- output-error fit ---------------------------------------------------------------------------
@@ -192,7 +245,7 @@ def position_params(model: GreyBox, b: Bounds, *, controller: bool,
     """
     out: list[Param] = []
     if controller and isinstance(model.controller, CascadeController):
-        ts = b.ts
+        ts = b.controller_ts
         c = model.controller
         # a servo loop: velocity bandwidth wv 3 % .. 200 % of the sampling rate (rad/s),
         # position gain 2 % .. 200 % of wv (a position loop much faster than the velocity loop

@@ -86,6 +86,9 @@ class Bounds:
         Sample time, s.
     noise : float
         Noise floor of the position, m.
+    loop_ts : float, optional
+        The model loop's period, s, when it runs faster than the log (see
+        :attr:`fricbench.sysid.diagnose.controllers.LoopInputs.n_loop`); default ``ts``.
     """
 
     force: float
@@ -94,6 +97,12 @@ class Bounds:
     duration: float
     ts: float
     noise: float
+    loop_ts: float | None = None
+
+    @property
+    def controller_ts(self) -> float:
+        """The period the controller gains are bounded with, s."""
+        return self.ts if self.loop_ts is None else self.loop_ts
 
     @property
     def damping_max(self) -> float:

@@ -3,6 +3,7 @@ decimated columns, folds, the noise floor and the ranges that bound the paramete
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -94,6 +95,13 @@ class Prepared:
     def ts(self) -> float:
         """Sample time, s."""
         return self.inputs.ts
+
+    def with_loop(self, n_loop: int) -> Prepared:
+        """The same run simulated with a loop ``n_loop`` times faster than the log (see
+        :attr:`fricbench.sysid.diagnose.controllers.LoopInputs.n_loop`)."""
+        if n_loop == self.inputs.n_loop:
+            return self
+        return dataclasses.replace(self, inputs=dataclasses.replace(self.inputs, n_loop=n_loop))
 
     @property
     def n(self) -> int:

@@ -914,7 +914,7 @@ def _refit(start: GreyBox, prep: Prepared, b: Bounds, max_iter: int) -> Position
     """
     from fricbench.sysid.diagnose.baselines import starting_controllers
 
-    grid = [start.copy(controller=c) for c in starting_controllers(prep.ts)]
+    grid = [start.copy(controller=c) for c in starting_controllers(prep.inputs.loop_ts)]
     ys = simulate_models(grid, prep)[0]
     sse = np.array([_position_sse(y, prep, np.ones(prep.n, dtype=bool)) for y in ys])
     candidates = [start] + [grid[i] for i in np.argsort(sse)[:1] if np.isfinite(sse[i])]

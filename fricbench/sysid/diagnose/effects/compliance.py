@@ -318,7 +318,7 @@ class Compliance(Effect):
         standard = (starting_pid_controllers
                     if isinstance(ctrl, CascadeController) and ctrl.is_pid
                     else starting_controllers)
-        loops = [model.controller] + (standard(prep.ts) if cascade else [])
+        loops = [model.controller] + (standard(prep.inputs.loop_ts) if cascade else [])
         rows = []
         for f in freqs[:3]:
             for ratio in START_RATIOS:
