@@ -206,3 +206,38 @@ def test_a_clipping_drive_is_found_from_the_position() -> None:
     linear, _, bounds, _ = BL.fit_linear_cascade(prep)
     fit = BL.friction_aware_fit(linear, prep, bounds)
     assert fit is not None and BL.fit_drive_limit(fit, prep, bounds) is None
+
+
+def test_a_fast_loop_clipping_against_large_friction_is_found_from_a_slow_log() -> None:
+    """A PID loop at 1 kHz, logged at 100 Hz, whose drive clips against a Coulomb friction
+    as large as the motion's own acceleration (no effort logged). A loop fitted without a
+    limit finds no friction at all there, and a loop at the log's rate cannot reproduce the
+    drive: the limit's grid of starts and the loop at LOOP_TS find the limit and the friction
+    within 15 % (the second simulator's truth), the diagnosis says at which rate its loop
+    runs and cuts the position error far below the linear model's."""
+    from fricbench.sysid.diagnose import diagnosis as D
+
+    case = S.draw_case("control", 5)
+    var = case.variant
+    assert (var.law, var.saturate, var.log_every, var.effort) == ("pid", True, 10, None)
+    assert np.mean(case.trace.clipped) > 0.001  # the drive did clip
+    cols = case.logged()
+    k = S.UNIT_PER_SI[var.unit]
+    run = validate_arrays(cols["t"], cols["ref"] / k, cols["pos"] / k)  # as exported
+    prep = prepare(run)
+    mass, kt = case.plant.mass, case.ctrl.kt
+    slow = D._loop_base(prep, run.n_reversals)
+    fast = D._loop_base(prep.with_loop(10), run.n_reversals)
+    assert fast.cost < D.LOOP_RATE_MARGIN * slow.cost, (fast.cost, slow.cost)
+    assert fast.limit is not None and fast.limit.model is not None
+    truth = case.ctrl.limit * kt / mass
+    assert fast.limit.level == pytest.approx(truth, rel=0.15)
+    assert fast.limit.model.plant[CL.I_FC] == pytest.approx(case.plant.coulomb / mass, rel=0.15)
+    res = D.diagnose(run)
+    assert res.prep.inputs.n_loop == 10
+    assert any("periods per logged sample" in n for n in res.notes)
+    assert any("the drive clips" in w for w in res.warnings)
+    assert "coulomb_friction" in res.effects
+    before = float(np.sqrt(np.mean((prep.x - res.train.y_before) ** 2)))
+    after = float(np.sqrt(np.mean((prep.x - res.train.y_after) ** 2)))
+    assert np.isfinite(after) and after < 0.1 * before, (before, after)

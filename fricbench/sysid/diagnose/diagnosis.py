@@ -16,6 +16,7 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.baselines import (
+    DriveLimit,
     LinearTF,
     fit_drive_limit,
     fit_law_like,
@@ -444,13 +445,40 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
     return _ModeFit("effort", force_unit, prep, linear, search, train, notes, [], laws)
 
 
-def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
-                  log: Callable[[str], None], t0: float) -> _ModeFit:
-    """The search on the position alone: a loop fitted to the position, forces per unit mass."""
-    notes = ["no effort column: forces are reported per unit mass (m/s^2)"]
-    warnings: list[str] = []
-    laws = {"train": "a cascade fitted to the training run's position"}
-    log("linear model: cascade controller on a unit mass, output-error fit")
+LOOP_TS = 1e-3
+"""Period of the model's loop when the log is slower (s): drives close their position loop at
+1 kHz or faster, and a loop simulated at a 100 Hz log's rate cannot reproduce one (a position
+mode run logged at 2 ms or slower is also fitted with a loop at this period, see
+:func:`_loop_base`)."""
+
+LOOP_RATE_MARGIN = 0.1
+"""The faster loop of :data:`LOOP_TS` is kept only when its fits (the loop with friction, and
+with the drive's limit when one shows) leave less than this share of the squared error of the
+loop at the log's rate. The effects are judged with the loop the base fit chose, and a loop
+that fits better by its gains alone lets a real friction look too small to matter: on the
+second simulator, faster loops that fitted 0.3-0.6 times better lost the Coulomb friction or a
+drift their log-rate loops found, while a clipping PID logged at 100 Hz fitted 300 times
+better (the limit and friction are found only there)."""
+
+
+@dataclass
+class _LoopBase:
+    """The linear loop of a position-mode diagnosis and what the search starts from."""
+
+    prep: Prepared
+    linear: GreyBox
+    y_lin: np.ndarray
+    bounds: Bounds
+    jac: np.ndarray | None
+    alt: tuple
+    limit: DriveLimit | None
+    cost: float
+
+
+def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
+    """The linear loop fitted to the position, the loop fitted with friction (and the
+    drive's limit when one shows) that the search also tries, and the squared error of the
+    best of those fits (to compare loop rates)."""
     try:
         linear, y_lin, bounds, jac = fit_linear_cascade(prep)
     except ValueError as exc:
@@ -459,13 +487,16 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
         raise DiagnosisError("no valid linear model of this run: every linear loop fitted "
                              "to the position diverges or misses it by more than the "
                              "stroke")
-    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
-        f" ({time.perf_counter() - t0:.1f} s)")
+    cost = float(np.sum((prep.x - y_lin) ** 2))
     alt: tuple = ()
-    if run.n_reversals > 0:
+    limit = None
+    if n_reversals > 0:
         fit = friction_aware_fit(linear, prep, bounds)
         loop = friction_aware_loop(linear, prep, bounds, fit=fit)
         limit = fit_drive_limit(fit, prep, bounds) if fit is not None else None
+        fit_sse = (float(np.sum((prep.x - fit.y) ** 2)) if fit is not None
+                   and np.all(np.isfinite(fit.y)) else math.inf)
+        cost = min(cost, fit_sse)
         if limit is not None:
             # the drive clips: every model of the run (the linear one included, as with a
             # clipping effort) runs with the limit
@@ -475,25 +506,62 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
             refit = PositionFit(prep, position_params(linear, bounds, controller=True)).run(
                 linear, max_iter=15)
             linear, y_lin = refit.model, refit.y
-            loop = friction_aware_loop(linear, prep, bounds)
-            warnings.append(
-                f"the drive clips: a limit of {limit.level:.4g} m/s^2 per unit mass on the "
-                f"loop's command, identified from the position (no effort logged; the loop "
-                f"with it clips {100 * limit.clipped_share:.1f} % of the samples and leaves "
-                f"{100 * limit.sse_ratio:.0f} % of the squared error without it); every "
-                "model of the run clips there")
-            log(f"  warning: {warnings[-1]}")
             if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
                 raise DiagnosisError("no valid linear model of this run: the linear loop "
                                      "with the identified drive limit diverges")
+            # the loop fitted with the limit and friction together is the alternative loop
+            loop = (limit.model if limit.model is not None
+                    else friction_aware_loop(linear, prep, bounds))
+            cost = min(cost, limit.sse_ratio * fit_sse)
         alt = (loop.controller,)
+    return _LoopBase(prep, linear, y_lin, bounds, jac, alt, limit, cost)
+
+
+def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
+                  log: Callable[[str], None], t0: float) -> _ModeFit:
+    """The search on the position alone: a loop fitted to the position, forces per unit mass."""
+    notes = ["no effort column: forces are reported per unit mass (m/s^2)"]
+    warnings: list[str] = []
+    laws = {"train": "a cascade fitted to the training run's position"}
+    log("linear model: cascade controller on a unit mass, output-error fit")
+    base = _loop_base(prep, run.n_reversals)
+    n_fast = int(round(prep.ts / LOOP_TS))
+    if n_fast >= 2:
+        # a log slower than a drive's loop: the loop is also fitted at LOOP_TS, and kept when
+        # its fit (with friction and the drive's limit) is far closer to the data
+        try:
+            fast = _loop_base(prep.with_loop(n_fast), run.n_reversals)
+        except DiagnosisError:
+            fast = None
+        if fast is not None and fast.cost < LOOP_RATE_MARGIN * base.cost:
+            base, slow_cost = fast, base.cost
+            notes.append(f"the loop is simulated at {1e3 * prep.inputs.ts / n_fast:.3g} ms, "
+                         f"{n_fast} periods per logged sample (with friction it leaves "
+                         f"{100 * fast.cost / slow_cost:.2g} % of the squared position error of "
+                         "a loop at the log's rate)")
+            log(f"  loop simulated at {n_fast} periods per logged sample")
+    prep, linear, y_lin, bounds, jac, alt = (base.prep, base.linear, base.y_lin, base.bounds,
+                                             base.jac, base.alt)
+    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
+        f" ({time.perf_counter() - t0:.1f} s)")
+    limit = base.limit
+    if limit is not None:
+        warnings.append(
+            f"the drive clips: a limit of {limit.level:.4g} m/s^2 per unit mass on the "
+            f"loop's command, identified from the position (no effort logged; the loop "
+            f"with it clips {100 * limit.clipped_share:.1f} % of the samples and leaves "
+            f"{100 * limit.sse_ratio:.2g} % of the squared error without it); every "
+            "model of the run clips there")
+        log(f"  warning: {warnings[-1]}")
+    if alt:
         log(f"  loop gains identified with friction: {alt[0].to_dict()}")
+    starts = (limit.model,) if limit is not None and limit.model is not None else ()
     search = forward_selection(linear, y_lin, prep, bounds, idim=None, w=None, jac=jac,
-                               settings=settings, alt_loops=alt, log=log)
+                               settings=settings, alt_loops=alt, alt_starts=starts, log=log)
     log(f"stop: {search.stop_reason}")
     final = search.final.model
     if isinstance(final.controller, CascadeController) and final.controller.is_pid:
-        g = final.controller.pid_gains(prep.ts)
+        g = final.controller.pid_gains(prep.inputs.loop_ts)
         laws["train"] = ("a PID position loop fitted to the training run's position with "
                          f"friction (per unit mass: P {g['p_1_s2']:.4g} 1/s^2, I "
                          f"{g['i_1_s3']:.4g} 1/s^3, D {g['d_1_s']:.4g} 1/s, derivative filter "
@@ -688,6 +756,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         v_run = (dataclasses.replace(validate, u=None)
                  if mode == "position" and validate.u is not None else validate)
         prep_v = prepare(v_run, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum)
+        # the training run's loop rate (a property of the drive, as its gains are)
+        prep_v = prep_v.with_loop(prep.inputs.n_loop)
         law_v = None
         if mode == "effort" and prep_v.u is not None:
             # the plant is what is validated; the loop is the validation run's own: its law

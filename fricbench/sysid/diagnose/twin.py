@@ -312,7 +312,8 @@ def twin_spec(result: Any, env_id: str, *, effort_gain: float | None = None,
     if result.mode != "effort":
         i_max *= gain  # a force, N, at kt = 1 N/A
     tables = _axis_tables(model.plant, gain)
-    tables["controller"] = _controller(ctrl, ts=prep.ts, n_sub=prep.n_sub, gain=gain,
+    # the loop's own period: a loop identified faster than the log runs at its rate
+    tables["controller"] = _controller(ctrl, ts=prep.inputs.loop_ts, n_sub=prep.n_sub, gain=gain,
                                        mass_si=mass_si, i_max=i_max)
     quantum = float(prep.noise.quantum)
     if 0.0 < quantum <= 1e-4:
@@ -337,7 +338,9 @@ def twin_spec(result: Any, env_id: str, *, effort_gain: float | None = None,
         "Digital twin written by 'fricbench diagnose --env-out' from "
         f"{os.path.basename(result.run.source)}",
         f"({result.run.n_samples} samples, mean step {prep.ts:.9g} s; controller.ts "
-        f"{_sample_time(prep.ts):g} s).",
+        f"{_sample_time(prep.inputs.loop_ts):g} s"
+        + (f", the loop identified {prep.inputs.n_loop} times faster than the log"
+           if prep.inputs.n_loop > 1 else "") + ").",
         f"Units: SI inside (m, s, kg, N); {unit_note}.",
         f"Controller: {result.laws.get('train', '')}"
         + (" (law = 'linear': its look-ahead reference taps folded into gains on x_r, v_r, a_r)"
