@@ -228,6 +228,25 @@ def test_quantum_of_a_rounded_export_and_a_floor_never_zero():
         noise_floor(x, x, quantum=0.0)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_quantum_of_a_rounded_export_over_thousands_of_steps(seed: int) -> None:
+    """A rounded export whose values span thousands of sensor steps (a 3.6 um encoder over
+    40 mm, exported in mm to 0.1 um, so that one step reads 3.5, 3.6 or 3.7 um): the step is
+    found to 0.1 % (a step known to a few per cent from single steps used to number the far
+    levels wrong, and no grid was found)."""
+    from fricbench.sysid.diagnose.signals import noise_floor
+
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(2.0e-6, 5.0e-6)
+    t = np.arange(4000) * 1e-2
+    xr = 0.02 * np.sin(0.3 * t + rng.uniform(0.0, 6.0)) + rng.uniform(-0.03, 0.03)
+    x = np.round((xr + rng.normal(0.0, 0.3 * q, t.size)) / q) * q
+    x = np.round(x * 1e3, 4) / 1e3  # mm, 4 decimals
+    assert np.ptp(x) / q > 5000
+    nf = noise_floor(x, xr)
+    assert nf.quantum == pytest.approx(q, rel=1e-3)
+
+
 def test_backward_elimination_drops_an_effect_the_others_made_unnecessary():
     """Forward selection may keep an effect that a later one made redundant: with the true
     Stribeck friction in the model, a position-dependent friction level adds nothing on

@@ -424,10 +424,12 @@ def _print_summary(report: dict, n_samples: int, elapsed: float,
               f"(position rms {m[f'position_rms_{sfx}'] * k:.4g} {lab}{extra})")
     pos = report["position"]
     nf = report["noise_floor"]
+    q_shown = (f"{nf[f'quantum_{sfx}'] * k:.3g} {lab}" if nf[f"quantum_{sfx}"] > 0.0
+               else "none found")
     print(f"position rms  {pos['rms_before'] * k:.4g} -> {pos['rms_after'] * k:.4g} {lab}, "
           f"max {pos['max_before'] * k:.4g} -> {pos['max_after'] * k:.4g} {lab} "
           f"(noise floor {nf[f'prediction_floor_{sfx}'] * k:.3g} {lab}, sensor quantum "
-          f"{nf[f'quantum_{sfx}'] * k:.3g} {lab})")
+          f"{q_shown})")
     if "effort" in report:
         e = report["effort"]
         print(f"effort relerr {e['relerr_before_pct']:.3f} -> {e['relerr_after_pct']:.3f} %"

@@ -131,14 +131,29 @@ def _quantum(x: np.ndarray) -> float:
             break
     if q <= 0.0:
         return 0.0
+    # the mean of the steps around it: a rounded export's 3.5, 3.6 and 3.7 for a 3.601 step
+    q = float(np.mean(d[np.abs(d - q) <= 0.05 * q][:2000]))
     levels = np.unique(x)
     if levels.size < 3:
         return q
-    for _ in range(3):
-        # levels = x0 + n q: slope and intercept by least squares over the distinct values
-        n = np.round((levels - levels[0]) / q)
+    # levels = x0 + n q: slope and intercept by least squares over the distinct values, over
+    # a span of levels widened 8-fold at a time, so that the step known to a few per cent from
+    # single steps numbers no level wrong when the values span thousands of steps
+    span = 8.0
+    while True:
+        sel = levels[levels <= levels[0] + span * q]
+        n = np.round((sel - sel[0]) / q)
         if np.ptp(n) <= 0:
             return 0.0
+        q_new, x0 = np.polyfit(n, sel, 1)
+        if not (np.isfinite(q_new) and q_new > 0.0):
+            return 0.0
+        q = float(q_new)
+        if sel.size == levels.size:
+            break
+        span *= 8.0
+    for _ in range(2):
+        n = np.round((levels - levels[0]) / q)
         q_new, x0 = np.polyfit(n, levels, 1)
         if not (np.isfinite(q_new) and q_new > 0.0):
             return 0.0
