@@ -178,14 +178,14 @@ class DriveLimit:
     sse_ratio : float
         Squared position error with the limit over the error without it (loop and Coulomb
         friction refitted both ways).
-    model : GreyBox or None
+    model : GreyBox
         The loop, Coulomb force and limit fitted together.
     """
 
     level: float
     clipped_share: float
     sse_ratio: float
-    model: GreyBox | None = None
+    model: GreyBox
 
 
 LIMIT_START_FRICTION = (0.5, 1.0)

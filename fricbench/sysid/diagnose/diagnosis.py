@@ -492,7 +492,6 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
     limit = None
     if n_reversals > 0:
         fit = friction_aware_fit(linear, prep, bounds)
-        loop = friction_aware_loop(linear, prep, bounds, fit=fit)
         limit = fit_drive_limit(fit, prep, bounds) if fit is not None else None
         fit_sse = (float(np.sum((prep.x - fit.y) ** 2)) if fit is not None
                    and np.all(np.isfinite(fit.y)) else math.inf)
@@ -509,10 +508,11 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
             if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
                 raise DiagnosisError("no valid linear model of this run: the linear loop "
                                      "with the identified drive limit diverges")
-            # the loop fitted with the limit and friction together is the alternative loop
-            loop = (limit.model if limit.model is not None
-                    else friction_aware_loop(linear, prep, bounds))
             cost = min(cost, limit.sse_ratio * fit_sse)
+        # the alternative loop: the one fitted with the limit and friction together when the
+        # drive clips, else the loop fitted with friction (with the linear plant refitted)
+        loop = (limit.model if limit is not None
+                else friction_aware_loop(linear, prep, bounds, fit=fit))
         alt = (loop.controller,)
     return _LoopBase(prep, linear, y_lin, bounds, jac, alt, limit, cost)
 
@@ -555,7 +555,7 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
         log(f"  warning: {warnings[-1]}")
     if alt:
         log(f"  loop gains identified with friction: {alt[0].to_dict()}")
-    starts = (limit.model,) if limit is not None and limit.model is not None else ()
+    starts = (limit.model,) if limit is not None else ()
     search = forward_selection(linear, y_lin, prep, bounds, idim=None, w=None, jac=jac,
                                settings=settings, alt_loops=alt, alt_starts=starts, log=log)
     log(f"stop: {search.stop_reason}")
