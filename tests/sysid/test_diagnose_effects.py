@@ -130,3 +130,20 @@ def test_a_failed_screen_sends_a_friction_level_effect_to_a_real_fit() -> None:
     for name in effect_names():
         if get_effect(name).always_fitted:
             assert _fitted_anyway(name, 0.5) and _fitted_anyway(name, 100.0)
+
+
+def test_an_always_fitted_effect_found_negligible_is_fitted_again_only_on_a_promising_screen(
+) -> None:
+    """Once a real fit found an always-fitted effect negligible, a later step fits it again
+    only when its screen promises a cut (below SCREEN_PROMISE); other effects are untouched."""
+    from fricbench.sysid.diagnose.search import SCREEN_PROMISE, _fitted_anyway
+
+    always = [n for n in effect_names() if get_effect(n).always_fitted]
+    assert always
+    for name in always:
+        seen = frozenset({name})
+        assert not _fitted_anyway(name, SCREEN_PROMISE, seen)
+        assert not _fitted_anyway(name, 1.0, seen)
+        assert _fitted_anyway(name, 0.99 * SCREEN_PROMISE, seen)
+        # another effect found negligible changes nothing for this one
+        assert _fitted_anyway(name, 1.0, frozenset({"force_offset"}))

@@ -628,9 +628,25 @@ left the range where the effect acts linearly (an effect at a small amplitude ch
 little either way): effects with ``Effect.fitted_when_screen_fails`` are then fitted for real."""
 
 
-def _fitted_anyway(name: str, ratio: float) -> bool:
-    """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``)."""
+NEGLIGIBLE_SIZE = 0.5
+"""A real fit whose effect moves the position by less than this fraction of the size it must
+reach (:meth:`SearchSettings.min_size`) found the effect negligible on this run."""
+
+SCREEN_PROMISE = 0.9
+"""A linearised screen ratio below this promises a cut worth a real fit again."""
+
+
+def _fitted_anyway(name: str, ratio: float, negligible: frozenset[str] = frozenset()) -> bool:
+    """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``).
+
+    An always-fitted effect that a real fit at an earlier step found negligible
+    (``negligible``) is fitted again only when its screen promises a cut: a later step adds a
+    force to the same loop, and the reason to fit it whatever its screen (its screen runs under
+    a loop that may be far off, or linearises a stick-slip response) was met by that fit.
+    """
     effect = get_effect(name)
+    if name in negligible and ratio >= SCREEN_PROMISE:
+        return False
     return effect.always_fitted or (effect.fitted_when_screen_fails and ratio > SCREEN_FAILED)
 
 
@@ -728,6 +744,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
     floor = floor_linear
     reason = f"reached the maximum of {settings.max_steps} effects"
     runners_up: set[str] = set()
+    negligible: set[str] = set()
     for _ in range(settings.max_steps):
         cur = steps[-1]
         m = cur.model
@@ -790,10 +807,12 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # and a periodic force, whose screen is no better (its linearised response to a
         # ripple misses how the ripple moves the stops of a stick-slip motion)
         chosen += [kv for kv in ranked[n_confirm:]
-                   if _fitted_anyway(kv[0], kv[1][0]) or kv[0] in runners_up]
+                   if _fitted_anyway(kv[0], kv[1][0], frozenset(negligible))
+                   or kv[0] in runners_up]
         for name, (ratio, _, _) in chosen:
             if (ratio >= 1.0 and len(steps) > 1
-                    and name not in runners_up and not _fitted_anyway(name, ratio)):
+                    and name not in runners_up
+                    and not _fitted_anyway(name, ratio, frozenset(negligible))):
                 continue
             heldout = 0.0
             fits: dict[int, PositionFitResult] = {}
@@ -820,6 +839,8 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                                 f"linearised x{ratio:.3f}")
             scores.append(sc)
             confirmed[name] = fits
+            if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
+                negligible.add(name)
             log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
                 f"size {size / floor:.2f} x floor")
         for name, (ratio, _, _) in [kv for kv in ranked if kv not in chosen]:
