@@ -365,3 +365,26 @@ def test_an_effort_whose_law_is_not_the_loop_gives_way_to_the_position(tmp_path:
     assert "backlash" in report["effects"]
     # the forces per unit mass come with the mass the effort gives (the effort is in N)
     assert cmp["effort_mass"]["mass_N_s2_m"] == pytest.approx(case.plant.mass, rel=0.2)
+
+
+def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object) -> None:
+    """A fast velocity loop on a fine encoder logs a command that is mostly noise (the inverse
+    dynamics with Coulomb friction leaves 64 % of it), while the position shows a friction level
+    that varies along the stroke many noise floors high. Once the effort shows no more force,
+    force effects are judged on the held-out free-run position: the position error falls well
+    below the Coulomb-only model's, and the report says how the effect was judged."""
+    case = S.draw_case("posdep", 6)
+    outcome = C.diagnose_case(case, str(tmp_path))
+    report = outcome.report
+    assert report is not None, outcome.stderr[-2000:]
+    assert report["data"]["mode"] == "effort"
+    steps = report["steps"]
+    assert steps[0]["effect"] == "coulomb_friction"
+    assert steps[0]["metrics"]["effort_relerr_pct"] > 30.0
+    assert len(steps) >= 2
+    unit = "position_rms_rad"
+    assert steps[-1]["metrics"][unit] < 0.8 * steps[0]["metrics"][unit]
+    judged = [c for st in steps[1:] for c in st.get("candidates", [])
+              if "judged on the position" in c.get("note", "")]
+    assert judged and all(c["judged_on"] == "position" for c in judged)
+    assert all(math.isfinite(c["heldout_error_ratio"]) for c in judged)

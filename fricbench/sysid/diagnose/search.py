@@ -292,6 +292,103 @@ POSITION_TOLERANCE = 0.02
 """An effect may make the free-run position prediction worse by this fraction at most."""
 
 
+POSITION_PHASE_FACTOR = 1.5
+"""With an effort, once no force effect cuts the held-out effort error, force effects are judged
+on the free-run position while its residual stays above this multiple of the noise floor."""
+
+
+def _force_params(model: GreyBox, b: Bounds, effects: Sequence[str]) -> list:
+    """The free parameters of ``effects`` (force effects), the loop and mass fixed."""
+    return position_params(model, b, controller=False, effects=list(effects), damping=False)
+
+
+def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynamics,
+                       b: Bounds, settings: SearchSettings, w: np.ndarray | None,
+                       floor: float, log: Callable[[str], None], warnings: list[str]
+                       ) -> tuple[list[CandidateScore],
+                                  tuple[CandidateScore, GreyBox, np.ndarray] | None]:
+    """One step of force effects judged on the held-out free-run position (with an effort).
+
+    A logged effort can be too noisy to show a force the position shows clearly: a command
+    computed from a finely quantised encoder through a fast velocity loop is mostly its noise,
+    while the loop integrates a small change of the friction level along the stroke into a
+    position error many noise floors high. Each candidate starts from its inverse-dynamics
+    fit on the training fold; its parameters and those of the force effects already in the
+    model are fitted to the training fold's position (the law and the mass fixed) and judged
+    on the other fold against the model without it, refitted the same way (so a refitted
+    friction level alone is no gain). Returns the scores and, when one wins, ``(score,
+    model, y)`` as :func:`_search_with_effort` accepts it.
+    """
+    forces = [e for e in m.effects if get_effect(e).kind == "force"]
+    base_fits = {}
+    base_heldout = 0.0
+    for k in (0, 1):
+        train = prep.folds != k
+        res = PositionFit(prep, _force_params(m, b, forces), train, w).run(m, max_iter=8)
+        base_fits[k] = res
+        base_heldout += _position_sse(res.y, prep, ~train)
+    scores: list[CandidateScore] = []
+    fits: dict[str, dict[int, PositionFitResult]] = {}
+    for name in _available(m, prep, settings):
+        if get_effect(name).kind != "force":
+            continue
+        effects = m.effects + (name,)
+        try:
+            _, fold_rows = idim.cv_sse(effects, _init_effect(m, name, prep, b).plant, new=name)
+        except NoStartError as exc:
+            log(f"    {name:28s} not fitted: {exc}")
+            continue
+        heldout = 0.0
+        fk: dict[int, PositionFitResult] = {}
+        for k in (0, 1):
+            train = prep.folds != k
+            start = m.copy(plant=fold_rows[k], effects=effects)
+            res = PositionFit(prep, _force_params(start, b, [*forces, name]), train, w).run(
+                start, max_iter=8)
+            fk[k] = res
+            heldout += _position_sse(res.y, prep, ~train)
+        rho = heldout / max(base_heldout, 1e-300)
+        if not math.isfinite(rho):
+            continue
+        size = min(_effect_position_size(fk[k].model, name, prep, w, fk[k].y) for k in (0, 1))
+        sc = CandidateScore(name, _n_params(name, effects), rho, "position", size / floor,
+                            size >= settings.min_size(name) * floor,
+                            "judged on the position: the effort shows no more")
+        scores.append(sc)
+        fits[name] = fk
+        log(f"    {name:28s} held-out position error x{rho:.3f} ({sc.n_params} par)"
+            f"{'' if sc.size_ok else ' too small'} (force judged on the position)")
+    pool = list(scores)
+    while True:
+        winner = _pick(pool, settings)
+        if winner is None:
+            return scores, None
+        pool = [s for s in pool if s is not winner]
+        fk = fits[winner.effect]
+        k_best = min(fk, key=lambda k: fk[k].cost)
+        start = fk[k_best].model
+        full = PositionFit(prep, _force_params(start, b, [*forces, winner.effect]), None,
+                           w).run(start, max_iter=12)
+        base_full = PositionFit(prep, _force_params(m, b, forces), None, w).run(
+            base_fits[k_best].model, max_iter=12)
+        size = _effect_position_size(full.model, winner.effect, prep, w, full.y)
+        why = artefact(full.model, winner.effect, prep, b, w)
+        if why is None and not np.all(np.isfinite(full.y)):
+            why = f"{winner.effect}: the loop with it diverges in a free run of the training run"
+        kept = full.cost / max(base_full.cost, 1e-300)
+        need = math.exp(-settings.required(winner.n_params, winner.effect, winner.judged_on))
+        if why is None and size >= settings.min_size(winner.effect) * floor and kept <= need:
+            return scores, (winner, full.model, full.y)
+        winner.size_ok = False
+        if why is not None:
+            winner.note += f"; rejected: {why}"
+            warnings.append(f"rejected {why}")
+        else:
+            winner.note += (f"; vanished in the refit on all samples (size {size / floor:.2f}, "
+                            f"error x{kept:.3f})")
+        log(f"    {winner.effect} rejected: {winner.note}")
+
+
 def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b: Bounds,
                         settings: SearchSettings, w: np.ndarray | None,
                         log: Callable[[str], None], warnings: list[str]
@@ -304,11 +401,29 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
     # it is finite
     floor = max(prediction_floor(model, prep, w), prep.noise.rms)
     reason = f"reached the maximum of {settings.max_steps} effects"
+    by_position = False
+    accepted: tuple[CandidateScore, GreyBox, np.ndarray] | None
+    scores: list[CandidateScore]
     for _ in range(settings.max_steps):
         cur = steps[-1]
         m = cur.model
+        if by_position:
+            scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w, floor,
+                                                  log, warnings)
+            if accepted is None:
+                reason = "no candidate improves the held-out position error significantly"
+                cur.candidates = scores
+                break
+            sc_p, m_p, y_p = accepted
+            step = Step(sc_p.effect, m_p, y_p, _rms(prep.x - y_p),
+                        float(np.max(np.abs(prep.x - y_p))), idim.relerr(m_p.plant), scores,
+                        sc_p.heldout_ratio)
+            steps.append(step)
+            log(f"  + {sc_p.effect} (judged on the position): position rms "
+                f"{step.position_rms:.3g} {_unit(prep)}")
+            continue
         base_cv, _ = idim.cv_sse(m.effects, m.plant)
-        scores: list[CandidateScore] = []
+        scores = []
         proposals: dict[str, GreyBox] = {}
         for name in _available(m, prep, settings):
             effects = m.effects + (name,)
@@ -345,7 +460,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
         # position is checked on the final model (:func:`_position_prune`): one effect alone
         # may worsen it while the pair it belongs to improves it (Coulomb friction without
         # the cogging that dominates the effort).
-        accepted: tuple[CandidateScore, GreyBox, np.ndarray] | None = None
+        accepted = None
         pool = list(scores)
         while accepted is None:
             winner = _pick([s for s in pool if s.judged_on == "effort"], settings)
@@ -372,9 +487,18 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 continue
             accepted = (winner, new, y_new)
         if accepted is None:
-            reason = "no candidate improves the held-out error significantly"
-            cur.candidates = scores
-            break
+            if cur.position_rms > POSITION_PHASE_FACTOR * floor:
+                # the effort shows no more force, the position still does: judge the force
+                # effects on it from here on
+                log("  the effort shows no more: force effects judged on the free-run position")
+                by_position = True
+                p_scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w,
+                                                        floor, log, warnings)
+                scores = scores + p_scores
+            if accepted is None:
+                reason = "no candidate improves the held-out error significantly"
+                cur.candidates = scores
+                break
         winner, new, y_new = accepted
         step = Step(winner.effect, new, y_new, _rms(prep.x - y_new),
                     float(np.max(np.abs(prep.x - y_new))), idim.relerr(new.plant), scores,
