@@ -371,8 +371,10 @@ def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object
     """A fast velocity loop on a fine encoder logs a command that is mostly noise (the inverse
     dynamics with Coulomb friction leaves 64 % of it), while the position shows a friction level
     that varies along the stroke many noise floors high. Once the effort shows no more force,
-    force effects are judged on the held-out free-run position: the position error falls well
-    below the Coulomb-only model's, and the report says how the effect was judged."""
+    force effects are judged on the held-out free-run position: the friction that varies along
+    the stroke is named, the position error falls well below the Coulomb-only model's, and the
+    report says how the effects were judged; asymmetric friction, which cuts the position error
+    too but makes the held-out effort error worse, is rejected."""
     case = S.draw_case("posdep", 6)
     outcome = C.diagnose_case(case, str(tmp_path))
     report = outcome.report
@@ -388,3 +390,6 @@ def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object
               if "judged on the position" in c.get("note", "")]
     assert judged and all(c["judged_on"] == "position" for c in judged)
     assert all(math.isfinite(c["heldout_error_ratio"]) for c in judged)
+    assert "position_dependent_friction" in report["effects"]
+    assert "asymmetric_friction" not in report["effects"]
+

@@ -292,6 +292,10 @@ POSITION_TOLERANCE = 0.02
 """An effect may make the free-run position prediction worse by this fraction at most."""
 
 
+EFFORT_TOLERANCE = 0.02
+"""A force effect judged on the position may make the held-out effort error worse by this
+fraction at most (the effort is measured: what it contradicts is no force of the axis)."""
+
 POSITION_PHASE_FACTOR = 1.5
 """With an effort, once no force effect cuts the held-out effort error, force effects are judged
 on the free-run position while its residual stays above this multiple of the noise floor."""
@@ -300,6 +304,16 @@ on the free-run position while its residual stays above this multiple of the noi
 def _force_params(model: GreyBox, b: Bounds, effects: Sequence[str]) -> list:
     """The free parameters of ``effects`` (force effects), the loop and mass fixed."""
     return position_params(model, b, controller=False, effects=list(effects), damping=False)
+
+
+def _heldout_effort_sse(idim: InverseDynamics, fits: dict[int, PositionFitResult]) -> float:
+    """Squared effort error of fold fits on the sliding rows of the fold each left out."""
+    prep = idim.prep
+    total = 0.0
+    for k, res in fits.items():
+        rows = (prep.folds_dec == k) & prep.sliding_dec
+        total += sumsq((idim.u_dec - idim.predict(res.model.plant))[rows])
+    return total
 
 
 def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynamics,
@@ -317,7 +331,8 @@ def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynam
     model are fitted to the training fold's position (the law and the mass fixed) and judged
     on the other fold against the model without it, refitted the same way (so a refitted
     friction level alone is no gain). Returns the scores and, when one wins, ``(score,
-    model, y)`` as :func:`_search_with_effort` accepts it.
+    model, y)`` as :func:`_search_with_effort` accepts it. A candidate that makes the held-out
+    effort error worse by more than :data:`EFFORT_TOLERANCE` is rejected.
     """
     forces = [e for e in m.effects if get_effect(e).kind == "force"]
     base_fits = {}
@@ -350,14 +365,25 @@ def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynam
         rho = heldout / max(base_heldout, 1e-300)
         if not math.isfinite(rho):
             continue
+        effort_ratio = _heldout_effort_sse(idim, fk) / max(
+            _heldout_effort_sse(idim, base_fits), 1e-300)
         size = min(_effect_position_size(fk[k].model, name, prep, w, fk[k].y) for k in (0, 1))
         sc = CandidateScore(name, _n_params(name, effects), rho, "position", size / floor,
                             size >= settings.min_size(name) * floor,
                             "judged on the position: the effort shows no more")
+        if effort_ratio > 1.0 + EFFORT_TOLERANCE:
+            # the measured effort contradicts it: a force the effort does not carry stands in
+            # for a mismatch of the loop (on a hobby motor's step run, Coulomb, Stribeck and
+            # position-dependent friction fitted this way cut the training position error 2x
+            # and made the other run's prediction worse)
+            sc.size_ok = False
+            sc.note += (f"; rejected: it makes the held-out effort error worse "
+                        f"(x{effort_ratio:.3f})")
         scores.append(sc)
         fits[name] = fk
-        log(f"    {name:28s} held-out position error x{rho:.3f} ({sc.n_params} par)"
-            f"{'' if sc.size_ok else ' too small'} (force judged on the position)")
+        log(f"    {name:28s} held-out position error x{rho:.3f} ({sc.n_params} par), effort "
+            f"x{effort_ratio:.3f}{'' if sc.size_ok else ' rejected'} (force judged on the "
+            "position)")
     pool = list(scores)
     while True:
         winner = _pick(pool, settings)
