@@ -393,3 +393,25 @@ def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object
     assert "position_dependent_friction" in report["effects"]
     assert "asymmetric_friction" not in report["effects"]
 
+
+def test_friction_varying_along_one_pass_is_fitted_with_its_coulomb_level(
+        tmp_path: object) -> None:
+    """A stiff PID run with one reversal over a stroke whose friction level varies by tens of
+    per cent: Coulomb friction fitted on one half predicts the other half's level wrong and
+    fails its held-out test alone, so the position-dependent friction that requires it is
+    fitted together with it and judged with the parameters of both (the error falls 18x)."""
+    case = S.draw_case("posdep", 3)
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert report["data"]["reversals"] == 1
+    steps = report["steps"]
+    assert [st["effect"] for st in steps][:2] == ["coulomb_friction",
+                                                  "position_dependent_friction"]
+    # the prerequisite was not judged alone: no held-out figure of its own
+    assert "heldout_error_ratio" not in steps[0]["metrics"]
+    assert steps[1]["metrics"]["heldout_error_ratio"] < 0.2
+    notes = [c.get("note", "") for st in steps for c in st.get("candidates", [])]
+    assert any("fitted with coulomb_friction" in n for n in notes)
+    assert report["position"]["rms_after"] < 0.1 * report["position"]["rms_before"]

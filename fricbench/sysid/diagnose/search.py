@@ -884,6 +884,84 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
     return screen
 
 
+def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateScore],
+                              confirmed: dict[str, dict[int, PositionFitResult]],
+                              prep: Prepared, b: Bounds, settings: SearchSettings,
+                              floor: float, base_heldout: float,
+                              fold_fit: Callable[[GreyBox, np.ndarray], PositionFitResult],
+                              log: Callable[[str], None], warnings: list[str]
+                              ) -> tuple[str, CandidateScore, PositionFitResult] | None:
+    """An effect fitted together with the prerequisite that alone failed its held-out test.
+
+    Friction whose level changes along the stroke, seen over one pass, is no constant level:
+    Coulomb friction fitted on one half of the run predicts the other half's level wrong and
+    fails, and the effect that would explain the change requires it. Each effect whose
+    prerequisite was fitted for real at this step and not accepted is fitted with it, from the
+    prerequisite's fold fits and the effect's probes, and judged as one candidate with the
+    parameters of both. Returns ``(prerequisite, score, refit on all samples)`` or None.
+    """
+    by_name = {sc.effect: sc for sc in scores if sc.judged_on == "position"}
+    for req, req_sc in by_name.items():
+        if req not in confirmed:
+            continue
+        for name in settings.candidates:
+            effect = get_effect(name)
+            effects = m.effects + (req, name)
+            if (req not in effect.requires or name in m.effects
+                    or any(r not in effects for r in effect.requires)
+                    or (effect.needs_reversals and prep.run.n_reversals == 0)
+                    or not effect.available(prep)):
+                continue
+            heldout = 0.0
+            fits: dict[int, PositionFitResult] = {}
+            for k in (0, 1):
+                train = prep.folds != k
+                base = _init_effect(confirmed[req][k].model, name, prep, b)
+                starts = []
+                for sizes, fixed in effect.probes(base.plant, base.effects, prep, b, y):
+                    q = base.plant.copy()
+                    for i, v in {**sizes, **fixed}.items():
+                        q[i] = v
+                    starts.append(base.copy(plant=q))
+                if not starts:
+                    break
+                fits[k] = min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
+                heldout += _position_sse(fits[k].y, prep, ~train)
+            if len(fits) < 2:
+                continue
+            n_par = _n_params(req, m.effects + (req,)) + _n_params(name, effects)
+            rho = heldout / max(base_heldout, 1e-300)
+            size = min(_effect_position_size(fits[k].model, name, prep, None, fits[k].y)
+                       for k in (0, 1))
+            sc = CandidateScore(name, n_par, rho, "position", size / floor,
+                                size >= settings.min_size(name) * floor,
+                                f"fitted with {req}, which alone made the held-out error "
+                                f"x{req_sc.heldout_ratio:.3f}")
+            scores.append(sc)
+            log(f"    fit    {name:28s} with {req}: held-out position error x{rho:.3f} "
+                f"({n_par} par), size {size / floor:.2f} x floor")
+            if not (math.isfinite(rho) and sc.size_ok
+                    and sc.gain >= settings.required(n_par, name, "position")):
+                continue
+            k_best = min(fits, key=lambda k: fits[k].cost)
+            full = _refit(fits[k_best].model, prep, b, 12)
+            size = _effect_position_size(full.model, name, prep, None, full.y)
+            why = artefact(full.model, name, prep, b) or artefact(full.model, req, prep, b)
+            kept = full.cost / max(_half_sse(y, prep), 1e-300)
+            need = math.exp(-settings.required(n_par, name, "position"))
+            if why is None and size >= settings.min_size(name) * floor and kept <= need:
+                return req, sc, full
+            sc.size_ok = False
+            if why is not None:
+                sc.note += f"; rejected: {why}"
+                warnings.append(f"rejected {why}")
+            else:
+                sc.note += (f"; vanished in the refit on all samples (size {size / floor:.2f}, "
+                            f"error x{kept:.3f})")
+            log(f"    {name} with {req} rejected: {sc.note}")
+    return None
+
+
 def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
                            settings: SearchSettings, log: Callable[[str], None],
                            jac: np.ndarray | None, warnings: list[str], alt_loops: tuple = (),
@@ -1029,9 +1107,30 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             log(f"    {winner.effect} rejected: {winner.note}")
             pool = [s for s in pool if s is not winner]
         if accepted is None:
-            reason = "no candidate improves the held-out position error significantly"
-            cur.candidates = scores
-            break
+            joint = _joint_with_prerequisite(m, cur.y, scores, confirmed, prep, b, settings,
+                                             floor, base_heldout, fold_fit, log, warnings)
+            if joint is not None:
+                m_req = joint[2].model.without(joint[1].effect)
+                y_req, _ = simulate_position(m_req, prep)
+                if not np.all(np.isfinite(y_req)):
+                    # the prerequisite's step must be reported with finite numbers
+                    joint = None
+            if joint is None:
+                reason = "no candidate improves the held-out position error significantly"
+                cur.candidates = scores
+                break
+            req, sc_j, full = joint
+            # two steps: the prerequisite (the joint model without the effect, not judged
+            # alone) and the effect (the joint model, judged with both)
+            steps.append(Step(req, m_req, y_req, _rms(prep.x - y_req),
+                              float(np.max(np.abs(prep.x - y_req))), None, scores, None))
+            steps.append(Step(sc_j.effect, full.model, full.y, _rms(prep.x - full.y),
+                              float(np.max(np.abs(prep.x - full.y))), None, scores,
+                              sc_j.heldout_ratio))
+            runners_up = set()
+            log(f"  + {req} with {sc_j.effect}: position rms {steps[-1].position_rms:.3g} "
+                f"{_unit(prep)}")
+            continue
         winner, full = accepted
         runners_up = {sc.effect for sc in scores if sc is not winner and sc.size_ok
                       and sc.judged_on == "position"
