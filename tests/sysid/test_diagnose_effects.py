@@ -147,3 +147,25 @@ def test_an_always_fitted_effect_found_negligible_is_fitted_again_only_on_a_prom
         assert _fitted_anyway(name, 0.99 * SCREEN_PROMISE, seen)
         # another effect found negligible changes nothing for this one
         assert _fitted_anyway(name, 1.0, frozenset({"force_offset"}))
+
+
+def test_an_output_effect_found_negligible_with_an_effort_is_not_fitted_again() -> None:
+    """With an effort, an output effect whose fit left it below NEGLIGIBLE_SIZE of the size it
+    must reach is not fitted again at the later steps (its fit is the slow part of each step);
+    the effects the run carries are still found."""
+    from fricbench.bench.diagnose_timing import benchmark_run
+    from fricbench.sysid.diagnose import diagnose
+
+    lines: list[str] = []
+    res = diagnose(benchmark_run(12_000, effort=True), log=lines.append)
+    assert res.mode == "effort"
+    assert {"coulomb_friction", "cogging"} <= set(res.effects)
+    skipped = {ln.split()[0] for ln in lines if "not fitted again" in ln}
+    assert skipped, "no output effect was found negligible on this run"
+    for name in skipped:
+        first_skip = next(i for i, ln in enumerate(lines)
+                          if ln.split()[:1] == [name] and "not fitted again" in ln)
+        fitted = [i for i, ln in enumerate(lines)
+                  if ln.split()[:1] == [name] and "held-out position error" in ln]
+        # fitted once (or more) before it was found negligible, never after
+        assert fitted and max(fitted) < first_skip

@@ -288,6 +288,11 @@ def _effect_position_size(model: GreyBox, name: str, prep: Prepared, w: np.ndarr
     return _rms(y - y0)
 
 
+NEGLIGIBLE_SIZE = 0.5
+"""A real fit whose effect moves the position by less than this fraction of the size it must
+reach (:meth:`SearchSettings.min_size`) found the effect negligible on this run (it is not
+fitted again unless its screen promises a cut)."""
+
 POSITION_TOLERANCE = 0.02
 """An effect may make the free-run position prediction worse by this fraction at most."""
 
@@ -428,6 +433,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
     floor = max(prediction_floor(model, prep, w), prep.noise.rms)
     reason = f"reached the maximum of {settings.max_steps} effects"
     by_position = False
+    negligible: set[str] = set()
     accepted: tuple[CandidateScore, GreyBox, np.ndarray] | None
     scores: list[CandidateScore]
     for _ in range(settings.max_steps):
@@ -469,6 +475,11 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                                     share >= settings.min_force_share)
                 proposals[name] = m.copy(plant=p_all, effects=effects)
             else:
+                if name in negligible:
+                    # its fit at an earlier step found it negligible: the forces added since
+                    # leave the loop and the output path as they were
+                    log(f"    {name:28s} not fitted again: negligible at an earlier step")
+                    continue
                 ratio, _ = _output_candidate(m, name, prep, b, w, cur.y)
                 fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
                                      None)
@@ -476,6 +487,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 size = _effect_position_size(m_new, name, prep, w, fitted.y)
                 sc = CandidateScore(name, n_par, ratio, "position", size / floor,
                                     size >= settings.min_size(name) * floor)
+                if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
+                    negligible.add(name)
                 proposals[name] = m_new
             scores.append(sc)
             log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
@@ -777,10 +790,6 @@ SCREEN_FAILED = 2.0
 left the range where the effect acts linearly (an effect at a small amplitude changes the error
 little either way): effects with ``Effect.fitted_when_screen_fails`` are then fitted for real."""
 
-
-NEGLIGIBLE_SIZE = 0.5
-"""A real fit whose effect moves the position by less than this fraction of the size it must
-reach (:meth:`SearchSettings.min_size`) found the effect negligible on this run."""
 
 SCREEN_PROMISE = 0.9
 """A linearised screen ratio below this promises a cut worth a real fit again."""
