@@ -414,4 +414,8 @@ def test_friction_varying_along_one_pass_is_fitted_with_its_coulomb_level(
     assert steps[1]["metrics"]["heldout_error_ratio"] < 0.2
     notes = [c.get("note", "") for st in steps for c in st.get("candidates", [])]
     assert any("fitted with coulomb_friction" in n for n in notes)
+    # a step lists the round that added it; the round that added nothing is reported apart
+    assert "position_dependent_friction" in {c["effect"] for c in steps[1]["candidates"]}
+    assert "position_dependent_friction" not in {c["effect"]
+                                                 for c in report["rejected_at_last_step"]}
     assert report["position"]["rms_after"] < 0.1 * report["position"]["rms_before"]

@@ -227,7 +227,7 @@ class DiagnosisResult:
                 val["injected_effort_used"] = self.validation.used_injected
             out["validation"] = val
         first = self.search.steps[0]
-        rejected = self.search.final.candidates
+        rejected = self.search.final.rejected
         pos = self.train.position()
         out["linear_model"] = {"model": _model_dict(self.linear, fu),
                                "position_rms_m": pos["rms_before"],

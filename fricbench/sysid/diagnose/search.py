@@ -170,7 +170,11 @@ class CandidateScore:
 
 @dataclass
 class Step:
-    """One step of the search: the model after adding ``effect`` (None: the linear model)."""
+    """One step of the search: the model after adding ``effect`` (None: the linear model).
+
+    ``candidates`` are the scores of the round that added ``effect``; ``rejected`` those of the
+    round after it when that round added nothing (the last step's: why the search stopped).
+    """
 
     effect: str | None
     model: GreyBox
@@ -180,6 +184,7 @@ class Step:
     effort_relerr_pct: float | None
     candidates: list[CandidateScore] = field(default_factory=list)
     heldout_ratio: float | None = None
+    rejected: list[CandidateScore] = field(default_factory=list)
 
 
 @dataclass
@@ -444,7 +449,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                                                   log, warnings)
             if accepted is None:
                 reason = "no candidate improves the held-out position error significantly"
-                cur.candidates = scores
+                cur.rejected = scores
                 break
             sc_p, m_p, y_p = accepted
             step = Step(sc_p.effect, m_p, y_p, _rms(prep.x - y_p),
@@ -536,7 +541,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 scores = scores + p_scores
             if accepted is None:
                 reason = "no candidate improves the held-out error significantly"
-                cur.candidates = scores
+                cur.rejected = scores
                 break
         winner, new, y_new = accepted
         step = Step(winner.effect, new, y_new, _rms(prep.x - y_new),
@@ -1126,7 +1131,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                     joint = None
             if joint is None:
                 reason = "no candidate improves the held-out position error significantly"
-                cur.candidates = scores
+                cur.rejected = scores
                 break
             req, sc_j, full = joint
             # two steps: the prerequisite (the joint model without the effect, not judged
