@@ -311,6 +311,23 @@ POSITION_PHASE_FACTOR = 1.5
 on the free-run position while its residual stays above this multiple of the noise floor."""
 
 
+def _kept_in_refit(sc: CandidateScore, why: str | None, size: float, min_size: float,
+                   kept: float, need: float, floor: float, warnings: list[str]) -> bool:
+    """Whether a winner's refit on all samples keeps it: not an artefact (``why`` is None), at
+    least ``min_size`` noise floors, and the error cut ``kept <= need``. Else the score is
+    marked rejected with the reason (an artefact's is also a warning)."""
+    if why is None and size >= min_size * floor and kept <= need:
+        return True
+    sc.size_ok = False
+    if why is not None:
+        sc.note += f"; rejected: {why}"
+        warnings.append(f"rejected {why}")
+    else:
+        sc.note += (f"; vanished in the refit on all samples (size {size / floor:.2f}, "
+                    f"error x{kept:.3f})")
+    return False
+
+
 def _force_params(model: GreyBox, b: Bounds, effects: Sequence[str]) -> list:
     """The free parameters of ``effects`` (force effects), the loop and mass fixed."""
     return position_params(model, b, controller=False, effects=list(effects), damping=False)
@@ -413,15 +430,9 @@ def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynam
             why = f"{winner.effect}: the loop with it diverges in a free run of the training run"
         kept = full.cost / max(base_full.cost, 1e-300)
         need = math.exp(-settings.required(winner.n_params, winner.effect, winner.judged_on))
-        if why is None and size >= settings.min_size(winner.effect) * floor and kept <= need:
+        if _kept_in_refit(winner, why, size, settings.min_size(winner.effect), kept, need,
+                          floor, warnings):
             return scores, (winner, full.model, full.y)
-        winner.size_ok = False
-        if why is not None:
-            winner.note += f"; rejected: {why}"
-            warnings.append(f"rejected {why}")
-        else:
-            winner.note += (f"; vanished in the refit on all samples (size {size / floor:.2f}, "
-                            f"error x{kept:.3f})")
         log(f"    {winner.effect} rejected: {winner.note}")
 
 
@@ -444,112 +455,107 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
     for _ in range(settings.max_steps):
         cur = steps[-1]
         m = cur.model
+        judged_on_position = by_position
         if by_position:
             scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w, floor,
                                                   log, warnings)
-            if accepted is None:
-                reason = "no candidate improves the held-out position error significantly"
-                cur.rejected = scores
-                break
-            sc_p, m_p, y_p = accepted
-            step = Step(sc_p.effect, m_p, y_p, _rms(prep.x - y_p),
-                        float(np.max(np.abs(prep.x - y_p))), idim.relerr(m_p.plant), scores,
-                        sc_p.heldout_ratio)
-            steps.append(step)
-            log(f"  + {sc_p.effect} (judged on the position): position rms "
-                f"{step.position_rms:.3g} {_unit(prep)}")
-            continue
-        base_cv, _ = idim.cv_sse(m.effects, m.plant)
-        scores = []
-        proposals: dict[str, GreyBox] = {}
-        for name in _available(m, prep, settings):
-            effects = m.effects + (name,)
-            n_par = _n_params(name, effects)
-            if get_effect(name).kind == "force":
-                p0 = _init_effect(m, name, prep, b).plant
-                try:
-                    cv, _ = idim.cv_sse(effects, p0, new=name)
-                    p_all = idim.fit(effects, p0, new=name)
-                except NoStartError as exc:
-                    log(f"    {name:28s} not fitted: {exc}")
+        else:
+            base_cv, _ = idim.cv_sse(m.effects, m.plant)
+            scores = []
+            proposals: dict[str, GreyBox] = {}
+            for name in _available(m, prep, settings):
+                effects = m.effects + (name,)
+                n_par = _n_params(name, effects)
+                if get_effect(name).kind == "force":
+                    p0 = _init_effect(m, name, prep, b).plant
+                    try:
+                        cv, _ = idim.cv_sse(effects, p0, new=name)
+                        p_all = idim.fit(effects, p0, new=name)
+                    except NoStartError as exc:
+                        log(f"    {name:28s} not fitted: {exc}")
+                        continue
+                    ratio = cv / max(base_cv, 1e-300)
+                    force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
+                    share = _rms(force) / max(u_rms, 1e-300)
+                    sc = CandidateScore(name, n_par, ratio, "effort", share,
+                                        share >= settings.min_force_share)
+                    proposals[name] = m.copy(plant=p_all, effects=effects)
+                else:
+                    if name in negligible:
+                        # its fit at an earlier step found it negligible: the forces added since
+                        # leave the loop and the output path as they were
+                        log(f"    {name:28s} not fitted again: negligible at an earlier step")
+                        continue
+                    ratio, _ = _output_candidate(m, name, prep, b, w, cur.y)
+                    fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
+                                         None)
+                    m_new = fitted.model
+                    size = _effect_position_size(m_new, name, prep, w, fitted.y)
+                    sc = CandidateScore(name, n_par, ratio, "position", size / floor,
+                                        size >= settings.min_size(name) * floor)
+                    if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
+                        negligible.add(name)
+                    proposals[name] = m_new
+                scores.append(sc)
+                log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
+                    f"({n_par} par){'' if sc.size_ok else ' too small'}")
+            # force effects first: an output effect cannot change the effort, and while a force
+            # effect is missing the position residual it leaves can look like an output effect.
+            # A winner must not be an artefact; else the next candidate is tried. The free-run
+            # position is checked on the final model (:func:`_position_prune`): one effect alone
+            # may worsen it while the pair it belongs to improves it (Coulomb friction without
+            # the cogging that dominates the effort).
+            accepted = None
+            pool = list(scores)
+            while accepted is None:
+                winner = _pick([s for s in pool if s.judged_on == "effort"], settings)
+                if winner is None:
+                    winner = _pick(pool, settings)
+                if winner is None:
+                    break
+                pool = [s for s in pool if s is not winner]
+                new = proposals[winner.effect]
+                if get_effect(winner.effect).kind == "force" and any(
+                        get_effect(e).kind == "output" for e in new.effects):
+                    new = _output_fit(new, prep, b, w, None).model
+                y_new, _ = simulate_position(new, prep, w)
+                why = artefact(new, winner.effect, prep, b, w)
+                if why is None and not np.all(np.isfinite(y_new)):
+                    # a model whose loop diverges is rejected, not reported
+                    why = (f"{winner.effect}: the loop with it diverges in a free run of the "
+                           "training run")
+                if why is not None:
+                    winner.size_ok = False
+                    winner.note = (winner.note + "; " if winner.note else "") + "rejected: " + why
+                    warnings.append(f"rejected {why}")
+                    log(f"    rejected {why}")
                     continue
-                ratio = cv / max(base_cv, 1e-300)
-                force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
-                share = _rms(force) / max(u_rms, 1e-300)
-                sc = CandidateScore(name, n_par, ratio, "effort", share,
-                                    share >= settings.min_force_share)
-                proposals[name] = m.copy(plant=p_all, effects=effects)
-            else:
-                if name in negligible:
-                    # its fit at an earlier step found it negligible: the forces added since
-                    # leave the loop and the output path as they were
-                    log(f"    {name:28s} not fitted again: negligible at an earlier step")
-                    continue
-                ratio, _ = _output_candidate(m, name, prep, b, w, cur.y)
-                fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
-                                     None)
-                m_new = fitted.model
-                size = _effect_position_size(m_new, name, prep, w, fitted.y)
-                sc = CandidateScore(name, n_par, ratio, "position", size / floor,
-                                    size >= settings.min_size(name) * floor)
-                if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
-                    negligible.add(name)
-                proposals[name] = m_new
-            scores.append(sc)
-            log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
-                f"({n_par} par){'' if sc.size_ok else ' too small'}")
-        # force effects first: an output effect cannot change the effort, and while a force
-        # effect is missing the position residual it leaves can look like an output effect.
-        # A winner must not be an artefact; else the next candidate is tried. The free-run
-        # position is checked on the final model (:func:`_position_prune`): one effect alone
-        # may worsen it while the pair it belongs to improves it (Coulomb friction without
-        # the cogging that dominates the effort).
-        accepted = None
-        pool = list(scores)
-        while accepted is None:
-            winner = _pick([s for s in pool if s.judged_on == "effort"], settings)
-            if winner is None:
-                winner = _pick(pool, settings)
-            if winner is None:
-                break
-            pool = [s for s in pool if s is not winner]
-            new = proposals[winner.effect]
-            if get_effect(winner.effect).kind == "force" and any(
-                    get_effect(e).kind == "output" for e in new.effects):
-                new = _output_fit(new, prep, b, w, None).model
-            y_new, _ = simulate_position(new, prep, w)
-            why = artefact(new, winner.effect, prep, b, w)
-            if why is None and not np.all(np.isfinite(y_new)):
-                # a model whose loop diverges is rejected, not reported
-                why = (f"{winner.effect}: the loop with it diverges in a free run of the "
-                       "training run")
-            if why is not None:
-                winner.size_ok = False
-                winner.note = (winner.note + "; " if winner.note else "") + "rejected: " + why
-                warnings.append(f"rejected {why}")
-                log(f"    rejected {why}")
-                continue
-            accepted = (winner, new, y_new)
-        if accepted is None:
-            if cur.position_rms > POSITION_PHASE_FACTOR * floor:
+                accepted = (winner, new, y_new)
+            if accepted is None and cur.position_rms > POSITION_PHASE_FACTOR * floor:
                 # the effort shows no more force, the position still does: judge the force
                 # effects on it from here on
                 log("  the effort shows no more: force effects judged on the free-run position")
                 by_position = True
-                p_scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w,
-                                                        floor, log, warnings)
+                p_scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w, floor,
+                                                        log, warnings)
                 scores = scores + p_scores
-            if accepted is None:
-                reason = "no candidate improves the held-out error significantly"
-                cur.rejected = scores
-                break
+        if accepted is None:
+            reason = ("no candidate improves the held-out position error significantly"
+                      if judged_on_position else
+                      "no candidate improves the held-out error significantly")
+            cur.rejected = scores
+            break
         winner, new, y_new = accepted
         step = Step(winner.effect, new, y_new, _rms(prep.x - y_new),
                     float(np.max(np.abs(prep.x - y_new))), idim.relerr(new.plant), scores,
                     winner.heldout_ratio)
         steps.append(step)
-        log(f"  + {winner.effect}: effort relerr {step.effort_relerr_pct:.3f} %, position rms "
-            f"{step.position_rms:.3g} {_unit(prep)}")
+        if judged_on_position:
+            log(f"  + {winner.effect} (judged on the position): position rms "
+                f"{step.position_rms:.3g} {_unit(prep)}")
+        else:
+            log(f"  + {winner.effect}: effort relerr {step.effort_relerr_pct:.3f} %, position "
+                f"rms {step.position_rms:.3g} {_unit(prep)}")
     return steps, reason, floor
 
 
@@ -963,15 +969,9 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
             why = artefact(full.model, name, prep, b) or artefact(full.model, req, prep, b)
             kept = full.cost / max(_half_sse(y, prep), 1e-300)
             need = math.exp(-settings.required(n_par, name, "position"))
-            if why is None and size >= settings.min_size(name) * floor and kept <= need:
+            if _kept_in_refit(sc, why, size, settings.min_size(name), kept, need, floor,
+                              warnings):
                 return req, sc, full
-            sc.size_ok = False
-            if why is not None:
-                sc.note += f"; rejected: {why}"
-                warnings.append(f"rejected {why}")
-            else:
-                sc.note += (f"; vanished in the refit on all samples (size {size / floor:.2f}, "
-                            f"error x{kept:.3f})")
             log(f"    {name} with {req} rejected: {sc.note}")
     return None
 
@@ -1107,17 +1107,10 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             kept = full.cost / max(_half_sse(cur.y, prep), 1e-300)
             need = math.exp(-settings.required(winner.n_params, winner.effect,
                                                winner.judged_on))
-            if why is None and size >= settings.min_size(winner.effect) * floor and (
-                    kept <= need):
+            if _kept_in_refit(winner, why, size, settings.min_size(winner.effect), kept,
+                              need, floor, warnings):
                 accepted = (winner, full)
                 break
-            winner.size_ok = False
-            if why is not None:
-                winner.note += f"; rejected: {why}"
-                warnings.append(f"rejected {why}")
-            else:
-                winner.note += (f"; vanished in the refit on all samples "
-                                f"(size {size / floor:.2f}, error x{kept:.3f})")
             log(f"    {winner.effect} rejected: {winner.note}")
             pool = [s for s in pool if s is not winner]
         if accepted is None:
