@@ -343,7 +343,7 @@ def _heldout_effort_sse(idim: InverseDynamics, fits: dict[int, PositionFitResult
     return total
 
 
-def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynamics,
+def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
                        b: Bounds, settings: SearchSettings, w: np.ndarray | None,
                        floor: float, log: Callable[[str], None], warnings: list[str]
                        ) -> tuple[list[CandidateScore],
@@ -412,6 +412,9 @@ def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynam
             f"x{effort_ratio:.3f}{'' if sc.size_ok else ' rejected'} (force judged on the "
             "position)")
     pool = list(scores)
+    # the model without the winner refitted on all samples, from the fold fit its start came
+    # from: once per fold, whichever winners try it
+    base_full: dict[int, PositionFitResult] = {}
     while True:
         winner = _pick(pool, settings)
         if winner is None:
@@ -422,13 +425,14 @@ def _force_by_position(m: GreyBox, cur: Step, prep: Prepared, idim: InverseDynam
         start = fk[k_best].model
         full = PositionFit(prep, _force_params(start, b, [*forces, winner.effect]), None,
                            w).run(start, max_iter=12)
-        base_full = PositionFit(prep, _force_params(m, b, forces), None, w).run(
-            base_fits[k_best].model, max_iter=12)
+        if k_best not in base_full:
+            base_full[k_best] = PositionFit(prep, _force_params(m, b, forces), None, w).run(
+                base_fits[k_best].model, max_iter=12)
         size = _effect_position_size(full.model, winner.effect, prep, w, full.y)
         why = artefact(full.model, winner.effect, prep, b, w)
         if why is None and not np.all(np.isfinite(full.y)):
             why = f"{winner.effect}: the loop with it diverges in a free run of the training run"
-        kept = full.cost / max(base_full.cost, 1e-300)
+        kept = full.cost / max(base_full[k_best].cost, 1e-300)
         need = math.exp(-settings.required(winner.n_params, winner.effect, winner.judged_on))
         if _kept_in_refit(winner, why, size, settings.min_size(winner.effect), kept, need,
                           floor, warnings):
@@ -457,7 +461,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
         m = cur.model
         judged_on_position = by_position
         if by_position:
-            scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w, floor,
+            scores, accepted = _force_by_position(m, prep, idim, b, settings, w, floor,
                                                   log, warnings)
         else:
             base_cv, _ = idim.cv_sse(m.effects, m.plant)
@@ -536,7 +540,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 # effects on it from here on
                 log("  the effort shows no more: force effects judged on the free-run position")
                 by_position = True
-                p_scores, accepted = _force_by_position(m, cur, prep, idim, b, settings, w, floor,
+                p_scores, accepted = _force_by_position(m, prep, idim, b, settings, w, floor,
                                                         log, warnings)
                 scores = scores + p_scores
         if accepted is None:
