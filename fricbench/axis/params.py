@@ -145,7 +145,8 @@ class Effects:
     Parameters
     ----------
     backlash : float
-        Lost motion between motor and table, m (play operator).
+        Lost motion between motor and table, m: a play operator (the table stops the instant
+        the motor leaves it), or two bodies across the gap with ``backlash_load_fraction``.
     measurement : {"motor", "table"}
         Feedback sensor: rotary encoder on the motor (semi-closed loop) or linear scale on the
         table (full closed loop). Logged positions are always the table's.
@@ -202,6 +203,13 @@ class Effects:
         (``mu = m_M m_L / M``; the motor side's anti-resonance is ``f_r sqrt(1 - r)``).
     compliance_damping : float
         Damping ratio ``zeta`` of that resonance (``c = 2 zeta mu 2 pi f_r``), 0 .. 2.
+    backlash_load_fraction : float
+        Two bodies across the backlash gap: the share ``r = m_L / M`` of the mass that is the
+        load (table). The friction acts on the load; the damping is split as the mass is;
+        the actuator force, the load force and the cogging act on the motor. Inside the gap
+        the motor moves alone and the load coasts until its friction stops it; the gap
+        closes in an inelastic impact. 0 (the default) keeps the play operator (the limit of
+        a massless load). At most 0.95; not with a compliant axis.
     """
 
     backlash: float = 0.0
@@ -226,6 +234,7 @@ class Effects:
     compliance_load_fraction: float = 0.0
     compliance_frequency: float = 50.0
     compliance_damping: float = 0.05
+    backlash_load_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         check_range("backlash", self.backlash, 0.0, 1e-3, "m")
@@ -250,6 +259,12 @@ class Effects:
         check_range("compliance_load_fraction", self.compliance_load_fraction, 0.0, 0.95)
         check_range("compliance_frequency", self.compliance_frequency, 0.1, 1.0e5, "Hz")
         check_range("compliance_damping", self.compliance_damping, 0.0, 2.0)
+        check_range("backlash_load_fraction", self.backlash_load_fraction, 0.0, 0.95)
+        if self.backlash_load_fraction > 0.0 and self.compliance_load_fraction > 0.0:
+            raise ValueError(
+                f"backlash_load_fraction={self.backlash_load_fraction:g} with "
+                f"compliance_load_fraction={self.compliance_load_fraction:g}: expected one of "
+                "the two (a two-body backlash on a compliant axis is not modelled)")
 
 
 def _coerce(cls: type, value: Any, name: str) -> Any:
@@ -417,6 +432,7 @@ class Axis:
         p[K.P_COMP_RATIO] = e.compliance_load_fraction
         p[K.P_COMP_FREQ] = e.compliance_frequency
         p[K.P_COMP_ZETA] = e.compliance_damping
+        p[PL.BL_LOAD] = e.backlash_load_fraction
         return p
 
     @property

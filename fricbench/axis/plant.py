@@ -59,6 +59,20 @@ hold, as the rigid axis is; scipy's ZOH discretisation to 1e-9 in the tests), fo
 (a spring of 100 kHz gives the rigid axis to 1e-10 of the stroke), without numerical damping;
 friction is implicit as on the rigid axis.
 
+Backlash between two bodies (off while the load fraction ``r_b`` is 0, the play operator
+above): the motor ``m_M = (1 - r_b) M`` takes the actuator force, the offset and the cogging; the
+load ``m_L = r_b M`` (the table) carries the friction (at its own position); the damping ``B``
+is split as the mass is. With the deflection ``delta = x_L - x_M`` within ``[-b/2, b/2]``: in
+contact the two move as one body (the rigid update above with the whole mass) while the contact
+force pushes; apart, the motor moves alone (exactly, ``B`` implicit) and the load coasts
+against its friction (the implicit update with its own mass); a gap that closes within a
+substep is an inelastic impact, the substep then taken together from its start with the
+velocity of the momentum. The state reuses the deflection entries (``S_DEF``, ``S_DEFV``). A
+vanishing gap gives the rigid axis; a vanishing load share the play operator with the motor
+frictionless while it crosses the gap. Drive trains with lost motion behave this way: the table
+coasts until its friction stops it, and the loop meets the motor's inertia alone at every
+reversal.
+
 The plant row (columns below) is the union of what the environments and the diagnosis need.
 Everything is in one consistent set of units: SI for the environments; the diagnosis may use
 an effort unit for forces (``Kt = 1``) or a unit mass (forces become accelerations). A second
@@ -92,15 +106,15 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 (TS, NSUB, M, B, KT, IMAX, DELAY, FKIND, FC, DFC, FS_EXCESS, VS, DELTA, FV, DB, SIGMA0, SIGMA1,
  OFFSET, COG_SIN, COG_COS, COG_PERIOD, PD_GRAD, PD_SIN, PD_COS, PD_PERIOD, PD_CENTER,
  BACKLASH, TH_AMP, TH_TAU, QUANT, NOISE, MEAS_TABLE, COMP_RATIO, COMP_FREQ, COMP_ZETA,
- LOG_MOTOR, TH_VHEAT) = range(37)
-N_PLANT = 37
+ LOG_MOTOR, TH_VHEAT, BL_LOAD) = range(38)
+N_PLANT = 38
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
     "cog_sin", "cog_cos", "cog_period", "pd_gradient", "pd_sin", "pd_cos", "pd_period",
     "pd_center", "backlash", "thermal_amplitude", "thermal_tau", "quantization", "noise_std",
     "measure_table", "compliance_load_fraction", "compliance_frequency", "compliance_damping",
-    "log_motor", "thermal_heating_speed",
+    "log_motor", "thermal_heating_speed", "backlash_load_fraction",
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
@@ -108,6 +122,8 @@ N_PLANT_RIGID = 32
 N_PLANT_COMPLIANT = 36
 """Length of the plant row before the motion-driven thermal drift (padded by
 :func:`pad_row`)."""
+N_PLANT_HEATED = 37
+"""Length of the plant row before the two-body backlash (padded by :func:`pad_row`)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
 S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV, S_HEAT = 0, 1, 2, 3, 4, 5, 6
@@ -155,17 +171,18 @@ def default_row(mass: float = 1.0, damping: float = 0.0, ts: float = 1.0e-3,
 def pad_row(row: np.ndarray) -> np.ndarray:
     """A plant row of the current layout from one of an earlier layout.
 
-    Rows of the rigid layout (32 entries) and of the compliant one (36 entries) are accepted:
-    the entries added since (compliance, the logged side, the thermal heating speed) are
-    appended off, so an older row keeps its meaning; a row of the current length is returned
-    as a copy.
+    Rows of the rigid layout (32 entries), the compliant one (36) and the one with the heating
+    speed (37) are accepted: the entries added since (compliance, the logged side, the thermal
+    heating speed, the backlash's load fraction) are appended off, so an older row keeps its
+    meaning; a row of the current length is returned as a copy.
     """
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
-    if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT):
-        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_COMPLIANT} or "
-                         f"{N_PLANT_RIGID}) entries, got shape {r.shape}")
+    if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED):
+        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_HEATED}, "
+                         f"{N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, got shape "
+                         f"{r.shape}")
     out = default_row()
     out[:r.shape[0]] = r
     return out
@@ -285,6 +302,13 @@ class Plant(NamedTuple):
     heat: bool  # motion-driven thermal drift (v_heat > 0)
     inv_vheat: float
     th_gain: float  # 1 - exp(-h / tau): theta's exact step towards |v| / v_heat
+    two_body: bool  # backlash between two bodies (load fraction > 0), not a play operator
+    m_motor: float
+    b_motor: float
+    m_load: float
+    inv_pos_load: float  # 1 / M_eff of the load alone in each direction (its own B and fv)
+    inv_neg_load: float
+    b_load: float
 
 
 def constants(p: np.ndarray) -> Plant:
@@ -324,13 +348,23 @@ def constants(p: np.ndarray) -> Plant:
     heat = p[TH_VHEAT] > 0.0
     inv_vheat = 1.0 / p[TH_VHEAT] if heat else 0.0
     th_gain = -math.expm1(-h / p[TH_TAU]) if heat else 0.0
+    # two bodies across the gap: the damping B split as the mass is, the friction on the load
+    two_body = p[BACKLASH] > 0.0 and p[BL_LOAD] > 0.0 and not comp and m != 0.0
+    m_load = p[BL_LOAD] * m if two_body else 0.0
+    b_load = p[BL_LOAD] * p[B] if two_body else 0.0
+    inv_pos_load = inv_neg_load = 0.0
+    if two_body:
+        inv_pos_load = 1.0 / (m_load + h * max(b_load + p[FV] + 0.5 * p[DB], 0.0))
+        inv_neg_load = 1.0 / (m_load + h * max(b_load + p[FV] - 0.5 * p[DB], 0.0))
     return Plant(h, n_sub, m, b_impl, p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
                  p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
                  p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS], cog_k, p[PD_GRAD],
                  p[PD_SIN], p[PD_COS], pd_k, p[PD_CENTER], p[BACKLASH], p[TH_AMP], p[TH_TAU],
                  p[QUANT], p[NOISE], p[MEAS_TABLE] > 0.5, m_eff, comp, cc[0], cc[1], cc[2],
                  cc[3], cc[4], cc[5], cc[6], cc[7], cc[8], cc[9], cc[10], cc[11], cc[12],
-                 cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5, heat, inv_vheat, th_gain)
+                 cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5, heat, inv_vheat, th_gain,
+                 two_body, m - m_load, p[B] - b_load, m_load, inv_pos_load, inv_neg_load,
+                 b_load)
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -360,23 +394,24 @@ def position_force(c: Plant, x: float) -> float:
     return f
 
 
-def _mechanics(c: Plant, x: float, v: float, z: float,
-               f_ext: float) -> tuple[float, float, float]:
-    """One substep of ``M dv/dt = f_ext - (B + fv) v - F_f``: returns ``(v_new, z_new, F_f)``.
+def _mech(c: Plant, x: float, v: float, z: float, f_ext: float, m_eff: float,
+          inv_pos: float, inv_neg: float, b: float) -> tuple[float, float, float]:
+    """One substep of ``M dv/dt = f_ext - (B + fv) v - F_f`` for a body of mass ``m_eff``.
 
-    ``M`` is the motor side's effective mass ``c.m_eff`` (the whole mass of a rigid axis).
+    ``inv_pos``, ``inv_neg``: ``1 / (M + h (B + fv_dir))`` in each direction; ``b`` the
+    damping ``B`` of that body. Returns ``(v_new, z_new, F_f)``.
     """
     h = c.h
     if c.kind == KIND_STATIC:
         # Kikuuwe: v+ = v* - h sgn(v*) g(|v+|) / M_eff with v* = (M v + h f_ext) / M_eff,
         # M_eff = M + h (B + fv_dir); stick (v+ = 0) when |v*| <= h F_s / M_eff
-        mom = c.m_eff * v + h * f_ext
+        mom = m_eff * v + h * f_ext
         if mom > 0.0:
             sigma = 1.0
-            inv_meff = c.inv_pos
+            inv_meff = inv_pos
         else:
             sigma = -1.0
-            inv_meff = c.inv_neg
+            inv_meff = inv_neg
         h_inv_meff = h * inv_meff
         lo, hi = levels(c, x, sigma)
         v_star = mom * inv_meff
@@ -401,11 +436,11 @@ def _mechanics(c: Plant, x: float, v: float, z: float,
                 if v_new * sigma < 0.0:
                     v_new = 0.0
         # F_f = (M v + h f_ext - M v+) / h - B v+
-        f_fric = c.m_eff * (v - v_new) * (1.0 / h) + f_ext - c.b * v_new
+        f_fric = m_eff * (v - v_new) * (1.0 / h) + f_ext - b * v_new
         return v_new, z, f_fric
     sigma_v = 1.0 if v >= 0.0 else -1.0
     visc = c.fv + 0.5 * sigma_v * c.db
-    damping = max(c.b + visc, 0.0)
+    damping = max(b + visc, 0.0)
     s1 = c.sigma1 if c.kind == KIND_LUGRE else 0.0
     lo, hi = levels(c, x, sigma_v)
     g = lo if c.kind == KIND_DAHL else stribeck_level(abs(v), lo, hi, c.vs, c.delta)
@@ -418,8 +453,17 @@ def _mechanics(c: Plant, x: float, v: float, z: float,
     rate = (z_new - z) / h
     # F = sigma0 z + sigma1 dz/dt + fv v; the sigma1 v part of dz/dt is taken implicitly
     f_bristle = c.sigma0 * z_new + s1 * (rate - v)
-    v_new = (c.m_eff * v + h * (f_ext - f_bristle)) / (c.m_eff + h * (damping + s1))
+    v_new = (m_eff * v + h * (f_ext - f_bristle)) / (m_eff + h * (damping + s1))
     return v_new, z_new, f_bristle + s1 * v_new + visc * v_new
+
+
+def _mechanics(c: Plant, x: float, v: float, z: float,
+               f_ext: float) -> tuple[float, float, float]:
+    """One substep of ``M dv/dt = f_ext - (B + fv) v - F_f``: returns ``(v_new, z_new, F_f)``.
+
+    ``M`` is the motor side's effective mass ``c.m_eff`` (the whole mass of a rigid axis).
+    """
+    return _mech(c, x, v, z, f_ext, c.m_eff, c.inv_pos, c.inv_neg, c.b)
 
 
 def actuate(c: Plant, buf: np.ndarray, base: int, i_cmd: float) -> tuple[float, int]:
@@ -461,6 +505,48 @@ def _compliant_substep(c: Plant, x: float, v: float, z: float, d: float, dv: flo
     return x_new, v_new, z, d_new, dv_new, f_fric
 
 
+def _two_body_substep(c: Plant, x: float, v: float, z: float, d: float, dv: float,
+                      f_ext: float) -> tuple[float, float, float, float, float, float]:
+    """One substep of the two bodies across a backlash gap: returns ``(x, v, z, d, dv, F_f)``.
+
+    ``x``, ``v``: the motor; ``d = x_L - x_M`` within ``[-b/2, b/2]`` and its rate. In contact
+    (``d`` at a limit, not separating) the two move as one body, the rigid update of the whole
+    axis with the load's friction, as long as the contact force that holds them together
+    pushes (a contact cannot pull). Apart, the motor takes the actuator force alone and the
+    load coasts against its friction (each with its share of ``B``); when the gap closes, the
+    impact is perfectly inelastic: one velocity from the momentum, and the substep is taken
+    together from the substep's start (so a vanishing gap gives the rigid axis).
+    (A function of its own, not inlined: the rigid substep's compiled code stays as it was.)
+    """
+    h = c.h
+    half = 0.5 * c.backlash
+    x_l = x + d
+    side = 1.0 if d <= -half else (-1.0 if d >= half else 0.0)
+    if side != 0.0 and side * dv <= 0.0:
+        # together: the whole mass, the load's friction (at the load's position)
+        v_new, z_new, f_fric = _mech(c, x_l, v, z, f_ext, c.m, c.inv_pos, c.inv_neg, c.b)
+        # the contact force on the load, from the motor's own balance
+        f_c = f_ext - c.b_motor * v_new - c.m_motor * (v_new - v) * (1.0 / c.h)
+        if side * f_c >= 0.0:
+            return x + 0.5 * h * (v + v_new), v_new, z_new, d, 0.0, f_fric
+    v_l = v + dv
+    v_m = (c.m_motor * v + h * f_ext) / (c.m_motor + h * c.b_motor)
+    v_l_new, z_new, f_fric = _mech(c, x_l, v_l, z, 0.0, c.m_load, c.inv_pos_load,
+                                   c.inv_neg_load, c.b_load)
+    x_new = x + 0.5 * h * (v + v_m)
+    d_new = x_l + 0.5 * h * (v_l + v_l_new) - x_new
+    if d_new < -half or d_new > half:
+        # the gap closes within the substep: an inelastic impact (one velocity from the
+        # momentum), and the substep taken together from there, so that a vanishing gap is the
+        # rigid axis (stiction and all) and the centre of mass moves as the forces say
+        d_c = -half if d_new < -half else half
+        v_c = (c.m_motor * v + c.m_load * v_l) / c.m
+        v_new, z_new, f_fric = _mech(c, x_l, v_c, z, f_ext, c.m, c.inv_pos, c.inv_neg, c.b)
+        x_cm = x + c.m_load / c.m * d + 0.5 * h * (v_c + v_new)
+        return x_cm - c.m_load / c.m * d_c, v_new, z_new, d_c, 0.0, f_fric
+    return x_new, v_m, z_new, d_new, v_l_new - v_m, f_fric
+
+
 def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv: float,
             theta: float, f_motor: float
             ) -> tuple[float, float, float, float, float, float, float, float]:
@@ -478,6 +564,8 @@ def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv:
         f_ext = f_motor - position_force(c, x)
         if c.comp:
             x, v_new, z, d, dv, f_fric = _compliant_substep(c, x, v, z, d, dv, f_ext)
+        elif c.two_body:
+            x, v_new, z, d, dv, f_fric = _two_body_substep(c, x, v, z, d, dv, f_ext)
         else:
             v_new, z, f_fric = _mechanics(c, x, v, z, f_ext)
             # trapezoidal position: exact when the velocity changes linearly over h
@@ -487,7 +575,7 @@ def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv:
             theta += (0.5 * (abs(v) + abs(v_new)) * c.inv_vheat - theta) * c.th_gain
         v = v_new
         f_sum += f_fric
-        if c.backlash > 0.0:
+        if c.backlash > 0.0 and not c.two_body:
             # play operator: the table follows only once the lost motion is taken up
             if x - x_play > 0.5 * c.backlash:
                 x_play = x - 0.5 * c.backlash
@@ -554,9 +642,11 @@ constants = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(constants
 friction_scale = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(friction_scale)
 levels = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(levels)
 position_force = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(position_force)
+_mech = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mech)
 _mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
 actuate = numba.njit(cache=True, inline="always")(actuate)
 _compliant_substep = numba.njit(cache=True, fastmath=FASTMATH)(_compliant_substep)
+_two_body_substep = numba.njit(cache=True, fastmath=FASTMATH)(_two_body_substep)
 advance = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance)
 thermal_drift = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(thermal_drift)
 sense = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(sense)
@@ -598,6 +688,7 @@ __all__ = [
     "DELTA", "FV", "DB", "SIGMA0", "SIGMA1", "OFFSET", "COG_SIN", "COG_COS", "COG_PERIOD",
     "PD_GRAD", "PD_SIN", "PD_COS", "PD_PERIOD", "PD_CENTER", "BACKLASH", "TH_AMP", "TH_TAU",
     "QUANT", "NOISE", "MEAS_TABLE", "COMP_RATIO", "COMP_FREQ", "COMP_ZETA", "LOG_MOTOR",
-    "TH_VHEAT", "S_X", "S_V", "S_XPLAY", "S_Z", "S_DEF", "S_DEFV", "S_HEAT", "KIND_STATIC",
+    "TH_VHEAT", "BL_LOAD", "N_PLANT_HEATED", "S_X", "S_V", "S_XPLAY", "S_Z", "S_DEF", "S_DEFV",
+    "S_HEAT", "KIND_STATIC",
     "KIND_LUGRE", "KIND_DAHL",
 ]

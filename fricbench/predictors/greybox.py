@@ -70,12 +70,13 @@ def loop_inputs(x_ref: np.ndarray, ts: float) -> LoopInputs:
 
 
 def _plant_size(state: dict[str, torch.Tensor]) -> int:
-    """Stored plant-row length: the shared plant's, or the 19, 32 or 36 entries of earlier
+    """Stored plant-row length: the shared plant's, or the 19, 32, 36 or 37 entries of earlier
     files."""
     stored = state.get("plant_")
     if stored is not None and tuple(stored.shape) in ((CL.LEGACY_N_PLANT,),
                                                       (PL.N_PLANT_RIGID,),
-                                                      (PL.N_PLANT_COMPLIANT,)):
+                                                      (PL.N_PLANT_COMPLIANT,),
+                                                      (PL.N_PLANT_HEATED,)):
         return int(stored.shape[0])
     return CL.N_PLANT
 
@@ -208,7 +209,8 @@ class GreyBoxPredictor(Predictor):
         if plant.shape[0] == CL.LEGACY_N_PLANT:
             plant = CL.from_legacy_row(plant)
         elif plant.shape[0] != CL.N_PLANT:
-            # a row of an earlier layout (before compliance or the heating speed was appended)
+            # a row of an earlier layout (before compliance, the heating speed or the backlash's
+            # load fraction was appended)
             plant = PL.pad_row(plant)
         # an unlimited actuator is the one infinite entry a plant row may hold
         limits = plant[PL.IMAX]

@@ -96,6 +96,7 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "compliance_damping": ("effects", "compliance_damping", ""),
     "log_motor": "the logged side: an env observes the load (table) position",
     "thermal_heating_speed": ("effects", "thermal_heating_speed", ""),
+    "backlash_load_fraction": ("effects", "backlash_load_fraction", ""),
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -108,7 +109,8 @@ _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_
               "thermal_heating_speed": ("thermal_amplitude",), "vs": ("fs_excess",),
               "delta": ("fs_excess",), "pd_center": ("pd_gradient",),
               "compliance_frequency": ("compliance_load_fraction",),
-              "compliance_damping": ("compliance_load_fraction",)}
+              "compliance_damping": ("compliance_load_fraction",),
+              "backlash_load_fraction": ("backlash",)}
 
 class TwinError(ValueError):
     """The diagnosis cannot be written as an env (the message names why)."""
