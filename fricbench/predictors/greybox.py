@@ -84,7 +84,8 @@ def _plant_size(state: dict[str, torch.Tensor]) -> int:
 def _joint_bounds(preps: list[Prepared], first: Bounds) -> Bounds:
     return Bounds(force=first.force, stroke=max(p.stroke for p in preps),
                   v_max=max(p.v_max for p in preps), duration=max(p.duration for p in preps),
-                  ts=first.ts, noise=min(max(p.noise.rms, 1e-12) for p in preps))
+                  ts=first.ts, noise=min(max(p.noise.rms, 1e-12) for p in preps),
+                  rotary=first.rotary)
 
 
 class GreyBoxPredictor(Predictor):

@@ -137,7 +137,7 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     f0 = max(float(np.max(np.abs(prep.inputs.ar))), 1e-6)
     b0 = Bounds(force=f0, stroke=max(prep.stroke, 1e-9), v_max=max(prep.v_max, 1e-9),
                 duration=prep.duration, ts=prep.ts, noise=prep.noise.rms,
-                loop_ts=prep.inputs.loop_ts)
+                loop_ts=prep.inputs.loop_ts, rotary=prep.rotary)
     best = None
     for i in order:
         if not np.isfinite(sse[i]):
@@ -152,7 +152,7 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     u_virtual = cascade_effort(best.model.controller, prep)
     bounds = Bounds(force=max(force_scale(u_virtual, prep.ts), f0), stroke=b0.stroke,
                     v_max=b0.v_max, duration=b0.duration, ts=b0.ts, noise=b0.noise,
-                    loop_ts=b0.loop_ts)
+                    loop_ts=b0.loop_ts, rotary=b0.rotary)
     return best.model, best.y, bounds, best.jac_rows
 
 
@@ -368,7 +368,7 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     model = GreyBox(ctrl, p)
     bounds = Bounds(force=force_scale(prep.u, prep.ts), stroke=max(prep.stroke, 1e-9),
                     v_max=max(prep.v_max, 1e-9), duration=prep.duration, ts=prep.ts,
-                    noise=prep.noise.rms)
+                    noise=prep.noise.rms, rotary=prep.rotary)
     return model, idim, bounds, min(ctrl.relerr_pct, law_relerr_floor(prep))
 
 

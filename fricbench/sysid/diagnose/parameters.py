@@ -89,6 +89,9 @@ class Bounds:
     loop_ts : float, optional
         The model loop's period, s, when it runs faster than the log (see
         :attr:`fricbench.sysid.diagnose.controllers.LoopInputs.n_loop`); default ``ts``.
+    rotary : bool
+        Positions are angles (rad): the limits stated as lengths (a backlash of at most
+        1 mm) are stated as angles instead.
     """
 
     force: float
@@ -98,6 +101,7 @@ class Bounds:
     ts: float
     noise: float
     loop_ts: float | None = None
+    rotary: bool = False
 
     @property
     def controller_ts(self) -> float:

@@ -104,6 +104,11 @@ class Prepared:
         return dataclasses.replace(self, inputs=dataclasses.replace(self.inputs, n_loop=n_loop))
 
     @property
+    def rotary(self) -> bool:
+        """Positions are angles (the run's position unit is rad)."""
+        return bool(self.run.units.get("position", "m") == "rad")
+
+    @property
     def n(self) -> int:
         """Number of samples."""
         return int(self.x.shape[0])

@@ -26,10 +26,14 @@ class Backlash(Effect):
     summary = "lost motion between the motor and the measured position (play operator)"
     parameters = (CL.I_BL,)
 
-    @staticmethod
-    def _largest(b: Bounds) -> float:
-        # at most 1 mm, and a fifth of the stroke
-        return min(1e-3, 0.2 * b.stroke)
+    #: largest gap: 1 mm on a linear axis, 50 mrad (about 3 deg) on a rotary one (a gear train)
+    LARGEST = 1e-3
+    LARGEST_ROTARY = 0.05
+
+    @classmethod
+    def _largest(cls, b: Bounds) -> float:
+        # and at most a fifth of the stroke
+        return min(cls.LARGEST_ROTARY if b.rotary else cls.LARGEST, 0.2 * b.stroke)
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         return Param(i, False, 0.0, self._largest(b), max(b.noise, 1e-7))
