@@ -4,7 +4,7 @@ loop (controller + mass with viscous damping) and the linear inverse dynamics.""
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -150,9 +150,7 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     if best is None:
         raise ValueError("no linear closed-loop model could be simulated stably on this run")
     u_virtual = cascade_effort(best.model.controller, prep)
-    bounds = Bounds(force=max(force_scale(u_virtual, prep.ts), f0), stroke=b0.stroke,
-                    v_max=b0.v_max, duration=b0.duration, ts=b0.ts, noise=b0.noise,
-                    loop_ts=b0.loop_ts, rotary=b0.rotary)
+    bounds = replace(b0, force=max(force_scale(u_virtual, prep.ts), f0))
     return best.model, best.y, bounds, best.jac_rows
 
 

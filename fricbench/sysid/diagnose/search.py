@@ -989,9 +989,8 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
     floor_linear = max(prediction_floor(model, prep), prep.noise.rms)
     floor = floor_linear
     reason = f"reached the maximum of {settings.max_steps} effects"
-    runners_up: set[str] = set()
-    # fold fits of the previous step, by effect: a runner-up restarts from its own
-    runner_fits: dict[str, dict[int, PositionFitResult]] = {}
+    # the runners-up of the previous step and their fold fits (each restarts from its own)
+    runners_up: dict[str, dict[int, PositionFitResult]] = {}
     negligible: set[str] = set()
     for _ in range(settings.max_steps):
         cur = steps[-1]
@@ -1074,8 +1073,8 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                         # a model of the loop fitted with this very effect (the drive limit's
                         # fit holds a Coulomb force) is a start too
                         starts += [st.copy() for st in alt_starts if st.effects == (name,)]
-                if name in runners_up and name in runner_fits:
-                    starts.append(_carried_over(m, name, runner_fits[name][k]))
+                if name in runners_up:
+                    starts.append(_carried_over(m, name, runners_up[name][k]))
                 res = min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
                 fits[k] = res
                 heldout += _position_sse(res.y, prep, ~train)
@@ -1142,15 +1141,14 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             steps.append(Step(sc_j.effect, full.model, full.y, _rms(prep.x - full.y),
                               float(np.max(np.abs(prep.x - full.y))), None, scores,
                               sc_j.heldout_ratio))
-            runners_up = set()
+            runners_up = {}
             log(f"  + {req} with {sc_j.effect}: position rms {steps[-1].position_rms:.3g} "
                 f"{_unit(prep)}")
             continue
         winner, full = accepted
-        runners_up = {sc.effect for sc in scores if sc is not winner and sc.size_ok
-                      and sc.judged_on == "position"
+        runners_up = {sc.effect: confirmed[sc.effect] for sc in scores
+                      if sc is not winner and sc.size_ok and sc.judged_on == "position"
                       and sc.gain >= settings.required(sc.n_params, sc.effect, sc.judged_on)}
-        runner_fits = {name: confirmed[name] for name in runners_up}
         step = Step(winner.effect, full.model, full.y, _rms(prep.x - full.y),
                     float(np.max(np.abs(prep.x - full.y))), None, scores, winner.heldout_ratio)
         steps.append(step)
