@@ -24,6 +24,10 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+# first: fricbench pins numpy's CPU dispatch before numpy loads
+import fricbench  # noqa: E402,F401
+
+# isort: split
 import second_sim as S  # noqa: E402
 import second_sim_check as C  # noqa: E402
 

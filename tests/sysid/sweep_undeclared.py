@@ -15,6 +15,10 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+# first: fricbench pins numpy's CPU dispatch before numpy loads
+import fricbench  # noqa: E402,F401
+
+# isort: split
 from test_diagnose_undeclared import check_case  # noqa: E402
 
 KINDS = ("control", "cogging", "backlash", "thermal", "posdep")
