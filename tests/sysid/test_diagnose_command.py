@@ -140,3 +140,21 @@ def test_time_axis_options(rotary_log, capsys, extra, message):
     code = main([rotary_log, "--reference", "0", "--position", "1", "--quiet", *extra])
     err = capsys.readouterr().err
     assert code == EXIT_BAD_INPUT and message in err and "Traceback" not in err
+
+
+def test_an_effort_without_a_stated_unit_is_labelled_n_with_a_warning(run_csv, tmp_path,
+                                                                       capsys):
+    out = tmp_path / "out.json"
+    assert main([run_csv, "--json", str(out), "--quiet"]) == EXIT_OK
+    data = json.loads(out.read_text())
+    said = [w for w in data["warnings"] if "--effort-unit" in w]
+    assert len(said) == 1 and "labelled N" in said[0]
+    assert "--effort-unit" in capsys.readouterr().err
+    assert any(k.endswith("_N") for step in data["steps"] for k in step["parameters"])
+    # stated, the unit labels the forces and nothing is assumed
+    out_a = tmp_path / "out_a.json"
+    assert main([run_csv, "--json", str(out_a), "--quiet", "--effort-unit", "A"]) == EXIT_OK
+    data_a = json.loads(out_a.read_text())
+    assert not [w for w in data_a["warnings"] if "--effort-unit" in w]
+    keys = [k for step in data_a["steps"] for k in step["parameters"]]
+    assert any(k.endswith("_A") for k in keys) and not any(k.endswith("_N") for k in keys)

@@ -11,6 +11,7 @@ one-line error and exit status 2, a diagnosis that fails or finds no finite mode
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import re
@@ -67,8 +68,10 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
                            "file has it")
     cols.add_argument("--no-effort", action="store_true",
                       help="ignore any effort column (diagnose from the position only)")
-    cols.add_argument("--effort-unit", default="N",
-                      help="unit of the effort, used to label force parameters (default: N)")
+    cols.add_argument("--effort-unit", default=None,
+                      help="unit of the effort, used to label force parameters (default: N, "
+                           "with a warning in the report: a logged effort is often a current, "
+                           "a voltage or a raw controller output)")
     tune = parser.add_argument_group("analysis")
     tune.add_argument("--quantum", type=float, default=None,
                       help="the position sensor's step, in --position-unit (default: detected "
@@ -223,6 +226,15 @@ def run(args: argparse.Namespace) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    if args.effort_unit is None:
+        args.effort_unit = "N"
+        if run_data.u is not None:
+            # an assumption the report must carry: labelling a current or a raw controller
+            # output in newtons would be a wrong unit at the edge
+            run_data = dataclasses.replace(run_data, warnings=(*run_data.warnings, (
+                "the effort's unit was not stated (--effort-unit): its forces are labelled N, "
+                "but a logged effort is often a current (A), a voltage (V) or a raw "
+                "controller output (%, counts)")))
     for w in run_data.warnings + (other.warnings if other is not None else ()):
         print(f"warning: {w}", file=sys.stderr)
     if (getattr(args, "env_out", None) and run_data.u is not None
