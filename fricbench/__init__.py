@@ -1,8 +1,8 @@
 """fricbench: simulate, learn, measure and compare servo-friction compensation.
 
 Importing the package registers the Gymnasium environments of ``envs/*.toml`` under the
-``fricbench/`` namespace. Imported before numpy, it first pins numpy's and OpenBLAS's CPU
-dispatch, so that a run gives the same numbers on an AVX-512 machine as on an AVX2 one (see
+``fricbench/`` namespace. Imported before numpy, it first pins numpy's, OpenBLAS's and torch's
+CPU dispatch, so that a run gives the same numbers on an AVX-512 machine as on an AVX2 one (see
 :mod:`fricbench.reproducible`).
 """
 

@@ -1,4 +1,4 @@
-"""Same numbers on every x86-64 machine: numpy's and OpenBLAS's CPU dispatch pinned.
+"""Same numbers on every x86-64 machine: numpy's, OpenBLAS's and torch's CPU dispatch pinned.
 
 numpy picks the SIMD kernels of ``exp``, ``log``, ``power``, ``expm1``, ``log1p``,
 ``arctan``, ``arctan2``, ``tan``, ``sinh``, ``cbrt`` ... by the CPU it loads on, and its
@@ -33,8 +33,7 @@ import platform
 import sys
 from importlib import metadata
 
-__all__ = ["pin_cpu_dispatch", "dispatch_state", "NUMPY_FEATURES_OFF", "OPENBLAS_CORE",
-           "AVX2_PINS"]
+__all__ = ["pin_cpu_dispatch", "NUMPY_FEATURES_OFF", "AVX2_PINS"]
 
 NUMPY_FEATURES_OFF = {
     # numpy >= 2.4 groups the AVX-512 targets as x86-64-v4 and two newer levels
@@ -46,14 +45,11 @@ NUMPY_FEATURES_OFF = {
 """numpy dispatch targets switched off (``NPY_DISABLE_CPU_FEATURES``): the AVX-512 ones, so
 that an AVX-512 machine runs the kernels an AVX2 machine runs."""
 
-OPENBLAS_CORE = "Haswell"
-"""OpenBLAS kernel set (``OPENBLAS_CORETYPE``) on a CPU with AVX2 and FMA: the one AVX2
-machines (Intel since Haswell, AMD Zen) run, which AVX-512 machines can run too."""
-
-AVX2_PINS = {"OPENBLAS_CORETYPE": OPENBLAS_CORE,
-             # torch's own kernels (ATen), its BLAS (MKL) and oneDNN (its LSTM): their AVX2
-             # code paths
-             "ATEN_CPU_CAPABILITY": "avx2", "MKL_CBWR": "AVX2", "ONEDNN_MAX_CPU_ISA": "AVX2"}
+AVX2_PINS = {
+    # OpenBLAS's kernel set that AVX2 machines (Intel since Haswell, AMD Zen) run
+    "OPENBLAS_CORETYPE": "Haswell",
+    # torch's own kernels (ATen), its BLAS (MKL) and oneDNN (its LSTM): their AVX2 code paths
+    "ATEN_CPU_CAPABILITY": "avx2", "MKL_CBWR": "AVX2", "ONEDNN_MAX_CPU_ISA": "AVX2"}
 """The variables set on a CPU with AVX2 and FMA (each kept when the user set it)."""
 
 
@@ -78,7 +74,7 @@ def _cpu_flags() -> set[str]:
 
 
 def pin_cpu_dispatch() -> bool:
-    """Pin numpy's SIMD dispatch below AVX-512 and OpenBLAS's kernels to Haswell (x86-64).
+    """Pin numpy's SIMD dispatch below AVX-512, OpenBLAS's and torch's kernels to AVX2 (x86-64).
 
     Returns
     -------
@@ -99,7 +95,3 @@ def pin_cpu_dispatch() -> bool:
             os.environ.setdefault(key, value)
     return True
 
-
-def dispatch_state() -> dict[str, str]:
-    """The CPU dispatch settings in force (for reports): each variable and its value."""
-    return {k: os.environ.get(k, "") for k in ("NPY_DISABLE_CPU_FEATURES", *AVX2_PINS)}
