@@ -104,6 +104,15 @@ def starting_pid_controllers(ts: float) -> list[CascadeController]:
     return out
 
 
+FRICTION_STARTS = (0.3, 1.0)
+"""Coulomb forces of the friction-aware fit's starts, in units of the run's force scale (the
+largest reference acceleration, or the linear loop's virtual effort). The joint fit of a loop
+and its friction has several minima: from a light friction, a PID loop often settles where a
+high damping and no acceleration feedforward stand in for the friction (on the second
+simulator, thermal/8's fit stayed at 4.8 times the error of the true loop and friction); from
+a friction of the order of the loop's effort it reaches the true one. Both are refined and the
+better kept."""
+
 PID_MARGIN = 0.8
 """A PID loop model replaces the cascade only when its fitted squared error is below this
 fraction of the cascade's (it has one more parameter; the simpler family is kept otherwise)."""
@@ -371,30 +380,42 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
 
 
 def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
-                       *, pid: bool = True) -> PositionFitResult | None:
+                       *, pid: bool = True,
+                       friction_starts: tuple[float, ...] = FRICTION_STARTS
+                       ) -> PositionFitResult | None:
     """The loop and a Coulomb force fitted together to the position (None: nothing could be
-    simulated), from the linear loop and from the best standard loops.
+    simulated), from the linear loop and from the best standard loops, each with the Coulomb
+    forces ``friction_starts`` (in units of ``bounds.force``; default
+    :data:`FRICTION_STARTS`).
 
     With ``pid`` (the default) the best standard PID position loop is refined too and
     replaces the cascade when it fits clearly better (:data:`PID_MARGIN`): a drive whose PID
     has complex P-PI roots or a filtered derivative is no cascade. Without it the loop stays
     a cascade (the ``greybox`` predictor, which models the benchmark's cascade axes).
     """
-    f0 = 0.3 * bounds.force
     cascades = starting_controllers(prep.inputs.loop_ts)
     pids = starting_pid_controllers(prep.inputs.loop_ts) if pid else []
-    starts = [linear] + [linear.copy(controller=c) for c in cascades + pids]
-    starts = [m.copy(effects=("coulomb_friction",)) for m in starts]
-    for m in starts:
-        m.plant[CL.I_FC] = f0
+    if not friction_starts:
+        raise ValueError("friction_starts=(): expected at least one Coulomb force")
+    loops = [linear] + [linear.copy(controller=c) for c in cascades + pids]
+    starts = []
+    for level in friction_starts:
+        for loop in loops:
+            start = loop.copy(effects=("coulomb_friction",))
+            start.plant[CL.I_FC] = level * bounds.force
+            starts.append(start)
     ys, _, status = simulate_models(starts, prep)
     sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
                     for y, s in zip(ys, status, strict=True)])
-    # the linear loop, the best standard cascade and the best standard PID loop, refined
-    n_c = len(cascades)
-    order = [0, int(np.argmin(sse[1:1 + n_c])) + 1]
-    if pids:
-        order.append(int(np.argmin(sse[1 + n_c:])) + 1 + n_c)
+    # per friction level: the linear loop, the best standard cascade and the best standard PID
+    # loop, refined
+    n_c, n_l = len(cascades), len(loops)
+    order: list[int] = []
+    for j in range(len(friction_starts)):
+        o = j * n_l
+        order += [o, o + 1 + int(np.argmin(sse[o + 1:o + 1 + n_c]))]
+        if pids:
+            order.append(o + 1 + n_c + int(np.argmin(sse[o + 1 + n_c:o + n_l])))
     best = None
     best_pid = None
     for i in order:
@@ -415,20 +436,22 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
 
 
 def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
-                        *, pid: bool = True, fit: PositionFitResult | None = None) -> GreyBox:
+                        *, pid: bool = True, fit: PositionFitResult | None = None,
+                        friction_starts: tuple[float, ...] = FRICTION_STARTS) -> GreyBox:
     """The loop gains identified together with a Coulomb friction force.
 
     Without an effort, a linear fit hardly sees the feedback gains: with feedforward the
     reference is tracked almost whatever they are, and what the gains do show is the response
     to disturbances, which a linear model does not have. Friction is the disturbance every
     axis has, so the gains are identified with a Coulomb force in the model
-    (:func:`friction_aware_fit`, or its result ``fit``). The returned model is linear again -
+    (:func:`friction_aware_fit` from ``friction_starts``, or its result ``fit``). The
+    returned model is linear again -
     the loop of the joint fit with the linear plant refitted - and is the base the candidate
     effects are judged against; whether friction itself belongs in the model is then judged
     like any other effect.
     """
-    best = fit if fit is not None else friction_aware_fit(linear, prep, bounds, max_iter,
-                                                          pid=pid)
+    best = fit if fit is not None else friction_aware_fit(
+        linear, prep, bounds, max_iter, pid=pid, friction_starts=friction_starts)
     if best is None:
         return linear
     loop = best.model.controller
