@@ -1,0 +1,115 @@
+"""The forward selection's held-out judgement (:mod:`fricbench.sysid.diagnose.search`)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from fricbench.sysid.diagnose.search import (
+    ONE_BLOCK_MAJORITY,
+    ONE_BLOCK_WORSE,
+    _blocks,
+    _judged_ratio,
+    block_left_out,
+)
+from fricbench.sysid.diagnose.signals import block_folds
+
+
+def heldout_ratio(cand: np.ndarray, base: np.ndarray) -> tuple[float, int | None]:
+    """The ratio a candidate is judged on and the block left out."""
+    ratio, left_out, note = _judged_ratio(float(cand.sum()), float(base.sum()), cand, base)
+    assert (note == "") == (left_out is None)
+    assert left_out == block_left_out(cand, base)
+    return ratio, left_out
+
+
+def _errors(rng: np.random.Generator, n: int = 20) -> np.ndarray:
+    return rng.uniform(0.5, 2.0, n)
+
+
+def test_the_ratio_is_that_of_the_sums_when_no_block_stands_alone() -> None:
+    rng = np.random.default_rng(1)
+    base = _errors(rng)
+    cand = base * np.where(np.arange(20) % 2 == 0, 0.5, 1.5)  # wins half the blocks
+    ratio, left_out = heldout_ratio(cand, base)
+    assert left_out is None
+    assert ratio == pytest.approx(cand.sum() / base.sum(), rel=1e-12)
+
+
+def test_one_block_against_all_the_others_is_left_out() -> None:
+    """A candidate 10 times better in 19 blocks and 100 times worse in one (a single event the
+    fold fit never saw) is judged without that block; with it, it would be rejected."""
+    rng = np.random.default_rng(2)
+    base = _errors(rng)
+    cand = 0.1 * base
+    cand[7] = 100.0 * base[7]
+    assert cand.sum() > base.sum()
+    ratio, left_out = heldout_ratio(cand, base)
+    assert left_out == 7
+    keep = np.arange(20) != 7
+    assert ratio == pytest.approx(cand[keep].sum() / base[keep].sum(), rel=1e-12)
+    assert ratio < 0.11
+
+
+def test_no_block_is_left_out_without_a_clear_majority() -> None:
+    rng = np.random.default_rng(3)
+    base = _errors(rng)
+    n_wins = int(np.ceil(ONE_BLOCK_MAJORITY * 19)) - 1  # one short of the majority
+    cand = base.copy()
+    cand[1:1 + n_wins] *= 0.1
+    cand[1 + n_wins:] *= 1.05
+    cand[0] = 100.0 * base[0]
+    ratio, left_out = heldout_ratio(cand, base)
+    assert left_out is None
+    assert ratio == pytest.approx(cand.sum() / base.sum(), rel=1e-12)
+    # one more win and the block goes
+    cand[1 + n_wins] = 0.1 * base[1 + n_wins]
+    assert heldout_ratio(cand, base)[1] == 0
+
+
+def test_a_block_the_candidate_hardly_changes_is_not_left_out() -> None:
+    """A block that holds most of the base's error (one rapid move) and that the candidate
+    predicts about as badly: leaving it out would turn a 0.3 % cut into a 94 % one."""
+    base = np.full(20, 0.01)
+    base[4] = 9.0
+    cand = 0.06 * base
+    cand[4] = 1.02 * base[4]
+    assert cand.sum() / base.sum() > 0.99
+    ratio, left_out = heldout_ratio(cand, base)
+    assert left_out is None
+    assert ratio == pytest.approx(cand.sum() / base.sum(), rel=1e-12)
+    cand[4] = ONE_BLOCK_WORSE * base[4]
+    assert heldout_ratio(cand, base)[1] == 4
+
+
+@pytest.mark.parametrize("where", ["candidate", "base"])
+def test_a_diverged_fold_keeps_the_plain_ratio(where: str) -> None:
+    rng = np.random.default_rng(4)
+    base = _errors(rng)
+    cand = 0.1 * base
+    (cand if where == "candidate" else base)[3] = np.inf
+    ratio, left_out = heldout_ratio(cand, base)
+    assert left_out is None
+    assert ratio == (np.inf if where == "candidate" else 0.0)
+
+
+def test_too_few_blocks_for_a_majority() -> None:
+    base = np.array([1.0, 1.0, 1.0])
+    cand = np.array([0.1, 0.1, 50.0])
+    assert heldout_ratio(cand, base) == (pytest.approx(50.2 / 3.0), None)
+
+
+@pytest.mark.parametrize(("n", "n_blocks"), [(1000, 20), (1003, 20), (230, 20)])
+def test_blocks_are_fold_0s_then_fold_1s_and_cover_the_run(n: int, n_blocks: int) -> None:
+    """The order the fold fits are judged in: the held-out blocks of fold 0, then fold 1."""
+    folds = block_folds(n, n_blocks)
+    blocks = _blocks(SimpleNamespace(folds=folds, n=n))  # type: ignore[arg-type]
+    labels = [int(folds[a]) for a, _ in blocks]
+    assert labels == sorted(labels)
+    covered = np.zeros(n, dtype=int)
+    for a, z in blocks:
+        assert np.all(folds[a:z] == folds[a])
+        covered[a:z] += 1
+    assert np.all(covered == 1)
