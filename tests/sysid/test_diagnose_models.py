@@ -108,6 +108,25 @@ def test_inverse_dynamics_recovers_mass_damping_and_coulomb():
     assert 75.0 < p[CL.I_B] < 300.0  # weakly excited by this reference
 
 
+def test_inverse_dynamics_held_out_error_per_block_adds_up():
+    """``cv_blocks`` splits ``cv_sse`` into the held-out blocks (fold 0's first), with the same
+    total and fold fits."""
+    ref = _reference(duration=6.0)
+    axis = Axis().with_friction("coulomb", fc=250.0).with_mechanics(mass=300.0, damping=150.0)
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
+    idim = InverseDynamics(prep, res.u)
+    effects = ("coulomb_friction",)
+    total, fits = idim.cv_sse(effects, CL.default_plant(1.0, 0.0))
+    total_b, blocks, fits_b = idim.cv_blocks(effects, CL.default_plant(1.0, 0.0))
+    assert total_b == total
+    n_blocks = 1 + int(np.count_nonzero(np.diff(prep.folds_dec)))
+    assert blocks.shape == (n_blocks,) and np.all(blocks >= 0.0)
+    assert float(np.sum(blocks)) == pytest.approx(total, rel=1e-12)
+    for a, b in zip(fits, fits_b, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_inverse_dynamics_finds_a_cogging_period_continuously():
     ref = _reference(duration=10.0)
     axis = Axis().with_effects(cogging_amplitude=150.0, cogging_period=3.37e-3,

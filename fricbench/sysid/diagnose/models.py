@@ -603,15 +603,30 @@ class InverseDynamics:
     def cv_sse(self, effects: tuple[str, ...], p: np.ndarray, new: str | None = None
                ) -> tuple[float, list[np.ndarray]]:
         """Held-out squared error: fit on one fold, evaluate on the other, both ways."""
+        total, _, fits = self.cv_blocks(effects, p, new)
+        return total, fits
+
+    def cv_blocks(self, effects: tuple[str, ...], p: np.ndarray, new: str | None = None
+                  ) -> tuple[float, np.ndarray, list[np.ndarray]]:
+        """:meth:`cv_sse` and the same error per held-out block: the squared error on the
+        sliding rows of each block (a contiguous run of one fold), fold 0's blocks first.
+        Returns ``(total, per block, the two fold fits)``."""
+        fd = self.prep.folds_dec
+        edges = np.flatnonzero(np.diff(fd)) + 1
+        ranges = list(zip(np.r_[0, edges].tolist(), np.r_[edges, fd.size].tolist(),
+                          strict=True))
         total = 0.0
+        blocks: list[float] = []
         fits = []
         for k in (0, 1):
-            train = self.prep.folds_dec != k
+            train = fd != k
             q = self.fit(effects, p, train, new)
-            r = (self.u_dec - self.predict(q))[~train & self.prep.sliding_dec]
-            total += sumsq(r)
+            resid = self.u_dec - self.predict(q)
+            total += sumsq(resid[~train & self.prep.sliding_dec])
+            on = np.where(self.prep.sliding_dec, resid, 0.0)
+            blocks += [sumsq(on[a:z]) for a, z in ranges if fd[a] == k]
             fits.append(q)
-        return total, fits
+        return total, np.asarray(blocks, dtype=float), fits
 
 
 def prediction_floor(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,

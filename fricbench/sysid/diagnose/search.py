@@ -537,7 +537,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
             scores, accepted = _force_by_position(m, prep, idim, b, settings, w, floor,
                                                   log, warnings)
         else:
-            base_cv, _ = idim.cv_sse(m.effects, m.plant)
+            base_cv, base_blocks, _ = idim.cv_blocks(m.effects, m.plant)
             scores = []
             proposals: dict[str, GreyBox] = {}
             for name in _available(m, prep, settings):
@@ -546,16 +546,16 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 if get_effect(name).kind == "force":
                     p0 = _init_effect(m, name, prep, b).plant
                     try:
-                        cv, _ = idim.cv_sse(effects, p0, new=name)
+                        cv, cv_blocks, _ = idim.cv_blocks(effects, p0, new=name)
                         p_all = idim.fit(effects, p0, new=name)
                     except NoStartError as exc:
                         log(f"    {name:28s} not fitted: {exc}")
                         continue
-                    ratio = cv / max(base_cv, 1e-300)
+                    ratio, _, block_note = _judged_ratio(cv, base_cv, cv_blocks, base_blocks)
                     force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
                     share = _rms(force) / max(u_rms, 1e-300)
                     sc = CandidateScore(name, n_par, ratio, "effort", share,
-                                        share >= settings.min_force_share)
+                                        share >= settings.min_force_share, block_note)
                     proposals[name] = m.copy(plant=p_all, effects=effects)
                 else:
                     if name in negligible:
@@ -575,7 +575,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     proposals[name] = m_new
                 scores.append(sc)
                 log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
-                    f"({n_par} par){'' if sc.size_ok else ' too small'}")
+                    f"({n_par} par){'' if sc.size_ok else ' too small'}"
+                    f"{f' ({sc.note})' if sc.note else ''}")
             # force effects first: an output effect cannot change the effort, and while a force
             # effect is missing the position residual it leaves can look like an output effect.
             # A winner must not be an artefact; else the next candidate is tried. The free-run
