@@ -128,6 +128,19 @@ def test_millimetres_are_suspected(tmp_path):
     assert any("millimetres" in w for w in run.warnings)
 
 
+@pytest.mark.parametrize(("unit", "per_si"), [("m", 1.0), ("mm", 1e3), ("deg", 180 / np.pi)])
+def test_a_large_tracking_error_is_a_warning_in_the_users_unit(unit: str, per_si: float) -> None:
+    """A measured position that is far from the reference (a wrong column, another unit, or
+    a step response) is flagged with its rms in the unit the log was given in."""
+    t = np.arange(2000) * 1e-3
+    xr = np.where((t // 0.5) % 2 == 0, 0.0, 0.01)  # steps of 10 mm (or 10 mrad)
+    xm = np.concatenate([[0.0], xr[:-1]]) * 0.5 + 0.0025 * np.sin(40 * t)  # far behind
+    run = validate_arrays(t, xr, xm, position_unit=unit)  # SI in, labelled in `unit`
+    err = float(np.sqrt(np.mean((xr - xm) ** 2))) * per_si
+    hits = [w for w in run.warnings if "differs from the reference" in w]
+    assert len(hits) == 1 and f"{err:.4g} {unit} rms" in hits[0]
+
+
 def test_empty_file(tmp_path):
     path = tmp_path / "empty.csv"
     path.write_bytes(b"")
