@@ -35,6 +35,7 @@ from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.diagnose.signals import (
     decimate_columns,
+    fold_blocks,
 )
 
 __all__ = ["GreyBox", "simulate_position", "simulate_models", "simulate_inputs", "Param",
@@ -612,9 +613,7 @@ class InverseDynamics:
         sliding rows of each block (a contiguous run of one fold), fold 0's blocks first.
         Returns ``(total, per block, the two fold fits)``."""
         fd = self.prep.folds_dec
-        edges = np.flatnonzero(np.diff(fd)) + 1
-        ranges = list(zip(np.r_[0, edges].tolist(), np.r_[edges, fd.size].tolist(),
-                          strict=True))
+        ranges = fold_blocks(fd)
         total = 0.0
         blocks: list[float] = []
         fits = []

@@ -58,6 +58,7 @@ from fricbench.sysid.diagnose.models import (
     simulate_position,
 )
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.signals import fold_blocks
 
 __all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
 
@@ -256,11 +257,8 @@ def _position_sse(y: np.ndarray, prep: Prepared, mask: np.ndarray) -> float:
 
 
 def _blocks(prep: Prepared) -> list[tuple[int, int]]:
-    """The held-out blocks (contiguous runs of one fold) as sample ranges, fold 0's first:
-    the order in which the two fold fits of a candidate are judged."""
-    edges = np.flatnonzero(np.diff(prep.folds)) + 1
-    ranges = list(zip(np.r_[0, edges].tolist(), np.r_[edges, prep.n].tolist(), strict=True))
-    return [r for k in (0, 1) for r in ranges if prep.folds[r[0]] == k]
+    """The held-out blocks of the run as sample ranges, fold 0's first (:func:`fold_blocks`)."""
+    return fold_blocks(prep.folds)
 
 
 def _block_sse(y: np.ndarray, prep: Prepared, fold: int) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from scipy import optimize, signal
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
-           "block_folds", "period_candidates", "MIN_PERIODS_IN_STROKE",
+           "block_folds", "fold_blocks", "period_candidates", "MIN_PERIODS_IN_STROKE",
            "choose_filter", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
 
 MIN_PERIODS_IN_STROKE = 2.0
@@ -398,6 +398,16 @@ def block_folds(n: int, n_blocks: int = 20, n_folds: int = 2) -> np.ndarray:
     n_blocks = max(n_folds, min(n_blocks, n // 50))
     block = (np.arange(n) * n_blocks) // n
     return (block % n_folds).astype(np.int64)
+
+
+def fold_blocks(folds: np.ndarray) -> list[tuple[int, int]]:
+    """The held-out blocks of :func:`block_folds` labels as sample ranges ``(start, stop)``:
+    the contiguous runs of one fold, fold 0's first, each fold's in time order (the order in
+    which the diagnosis judges its two fold fits)."""
+    edges = np.flatnonzero(np.diff(folds)) + 1
+    ranges = list(zip(np.r_[0, edges].tolist(), np.r_[edges, folds.size].tolist(),
+                      strict=True))
+    return [r for k in (0, 1) for r in ranges if folds[r[0]] == k]
 
 
 def period_candidates(x: np.ndarray, r: np.ndarray, moving: np.ndarray, p_min: float,
