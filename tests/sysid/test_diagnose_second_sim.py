@@ -440,6 +440,25 @@ def test_an_effort_whose_law_is_not_the_loop_gives_way_to_the_position(tmp_path:
     assert cmp["effort_mass"]["mass_N_s2_m"] == pytest.approx(case.plant.mass, rel=0.2)
 
 
+def test_a_law_fitted_on_a_slower_log_is_never_taken_as_the_drives_own(tmp_path: object
+                                                                         ) -> None:
+    """A 1 kHz PID loop logged at 100 Hz with its command in N: the law identified at the
+    log's rate reproduces the effort within 0.5 %, the threshold of a law taken as exact, yet
+    its loop at 100 Hz is not the drive's. The position's loop is fitted too and wins: the
+    thermal drift is named there and the error falls far below the effort's loop's."""
+    case = S.draw_case("thermal", 11)
+    assert case.variant.log_every == 10 and case.variant.effort == "N" and case.ctrl.law == "pid"
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    cmp = report["mode_comparison"]
+    assert 0.0 < cmp["effort"]["law_relerr_pct"] <= 0.5
+    assert cmp["chosen"] == "position"
+    assert cmp["position"]["position_rms_m"] < 0.25 * cmp["effort"]["position_rms_m"]
+    assert "thermal_drift" in report["effects"]
+
+
 def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object) -> None:
     """A fast velocity loop on a fine encoder logs a command that is mostly noise (the inverse
     dynamics with Coulomb friction leaves 64 % of it), while the position shows a friction level
