@@ -459,6 +459,22 @@ def test_a_law_fitted_on_a_slower_log_is_never_taken_as_the_drives_own(tmp_path:
     assert "thermal_drift" in report["effects"]
 
 
+def test_a_semi_closed_pid_logged_slower_runs_its_loop_at_the_drives_rate(tmp_path: object
+                                                                          ) -> None:
+    """A 1 kHz PID on the motor's encoder, backlash to the table, logged at 100 Hz: the loop
+    at 1 kHz fitted with friction leaves about a seventh of the squared error of the loop at
+    the log's rate, which is below half: the model runs at 1 kHz, the report says so, and the
+    backlash is found (at the log's rate it was missed, 11.1 um left for a 0.04 um floor)."""
+    case = S.draw_case("backlash", 5)
+    assert case.variant.log_every == 10 and case.ctrl.law == "pid"
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert any("periods per logged sample" in n for n in report["notes"]), report["notes"]
+    assert "backlash" in report["effects"]
+
+
 def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object) -> None:
     """A fast velocity loop on a fine encoder logs a command that is mostly noise (the inverse
     dynamics with Coulomb friction leaves 64 % of it), while the position shows a friction level
