@@ -18,6 +18,8 @@ Modules, in the order of the workflow:
 * :mod:`~fricbench.sysid.diagnose.effects` - the candidate effects;
 * :mod:`~fricbench.sysid.diagnose.models` - the grey-box model and its two fits;
 * :mod:`~fricbench.sysid.diagnose.baselines` - the linear starting models;
+* :mod:`~fricbench.sysid.diagnose.equation_error` - a loop and its friction by linear least
+  squares on the measured motion (starts of the output-error fits);
 * :mod:`~fricbench.sysid.diagnose.search` - forward selection on held-out data;
 * :mod:`~fricbench.sysid.diagnose.diagnosis` - the workflow (:func:`diagnose`);
 * :mod:`~fricbench.sysid.diagnose.report` - JSON and plots;
