@@ -81,6 +81,23 @@ class Outcome:
         return list(self.report.get("effects", [])) if self.report else []
 
 
+def position_only(case: S.Case, workdir: str | os.PathLike[str]) -> object:
+    """The case's run as the diagnosis prepares it, without its effort (a ``Prepared``): the
+    CSV written, read back with the command line's own column arguments."""
+    import argparse
+
+    from fricbench.sysid.diagnose.command import _configure
+    from fricbench.sysid.diagnose.prepared import prepare
+    from fricbench.sysid.io import load_run
+
+    path = os.path.join(str(workdir), f"{case.kind}-{case.seed}-position.csv")
+    S.write_csv(case, path)
+    ns = _configure(argparse.ArgumentParser()).parse_args(S.cli_args(case, path))
+    run = load_run(path, time=ns.time, reference=ns.reference, position=ns.position,
+                   effort=None, sample_time=ns.sample_time, position_unit=ns.position_unit)
+    return prepare(run)
+
+
 def bad_numbers(obj: object, path: str = "") -> list[str]:
     """Key paths of the null, NaN and inf values anywhere in a parsed JSON document."""
     if isinstance(obj, dict):

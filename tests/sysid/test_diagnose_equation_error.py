@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
@@ -12,6 +11,7 @@ import pytest
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import second_sim as S  # noqa: E402
+import second_sim_check as C  # noqa: E402
 
 from fricbench.sysid.diagnose import closed_loop as CL  # noqa: E402
 from fricbench.sysid.diagnose.baselines import (  # noqa: E402
@@ -24,27 +24,13 @@ from fricbench.sysid.diagnose.models import PositionFit, position_params  # noqa
 _STRIBECK = ("coulomb_friction", "stribeck_friction")
 
 
-def _prep(case: S.Case, tmp_path: object) -> object:
-    """The case's run as the diagnosis prepares it, without its effort."""
-    from fricbench.sysid.diagnose.command import _configure
-    from fricbench.sysid.diagnose.prepared import prepare
-    from fricbench.sysid.io import load_run
-
-    path = os.path.join(str(tmp_path), "run.csv")
-    S.write_csv(case, path)
-    ns = _configure(argparse.ArgumentParser()).parse_args(S.cli_args(case, path))
-    run = load_run(path, time=ns.time, reference=ns.reference, position=ns.position,
-                   effort=None, sample_time=ns.sample_time, position_unit=ns.position_unit)
-    return prepare(run)
-
-
 @pytest.fixture(scope="module")
 def stribeck_10(tmp_path_factory: pytest.TempPathFactory) -> tuple[S.Case, object, object]:
     """The sweep's stribeck/10: a 1 kHz PID with a filtered derivative and a one-sample
     delay, breakaway 1.8 times the Coulomb level, no effort logged."""
     case = S.draw_case("stribeck", 10)
     assert case.ctrl.law == "pid" and case.variant.log_every == 1
-    prep = _prep(case, tmp_path_factory.mktemp("st10"))
+    prep = C.position_only(case, tmp_path_factory.mktemp("st10"))
     _, _, bounds, _ = fit_linear_cascade(prep)
     return case, prep, bounds
 

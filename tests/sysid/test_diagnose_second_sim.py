@@ -298,20 +298,6 @@ def test_draw_makes_effects_visible_and_is_reproducible() -> None:
     assert a.truth()["effect"] == "position_dependent_friction"
 
 
-def _position_only(case: S.Case, tmp_path: object) -> object:
-    """The case's run as the diagnosis prepares it, without its effort."""
-    from fricbench.sysid.diagnose.command import _configure
-    from fricbench.sysid.diagnose.prepared import prepare
-    from fricbench.sysid.io import load_run
-
-    path = os.path.join(str(tmp_path), "run.csv")
-    S.write_csv(case, path)
-    ns = _configure(argparse.ArgumentParser()).parse_args(S.cli_args(case, path))
-    run = load_run(path, time=ns.time, reference=ns.reference, position=ns.position,
-                   effort=None, sample_time=ns.sample_time, position_unit=ns.position_unit)
-    return prepare(run)
-
-
 def _true_loop(case: S.Case) -> object:
     """The case's PID law and friction as a grey box per unit mass (the mapping of
     :class:`CascadeController`'s docstring: ``wv = D kt / M``, ``kp = P / D``, ``kpi = I / D``,
@@ -343,7 +329,7 @@ def test_the_friction_aware_fit_of_a_pid_loop_reaches_the_true_one(tmp_path: obj
 
     case = S.draw_case("thermal", 8)
     assert case.ctrl.law == "pid" and case.ctrl.delay == 2 and case.variant.effort is None
-    prep = _position_only(case, tmp_path)
+    prep = C.position_only(case, str(tmp_path))
     y_true, _ = simulate_position(_true_loop(case), prep)
     linear, _, bounds, _ = fit_linear_cascade(prep)
     fit = friction_aware_fit(linear, prep, bounds)
