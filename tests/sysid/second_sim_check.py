@@ -98,6 +98,28 @@ def position_only(case: S.Case, workdir: str | os.PathLike[str]) -> object:
     return prepare(run)
 
 
+def true_pid_loop(case: S.Case) -> object:
+    """The case's PID law, delay and Coulomb friction as a grey box per unit mass (the mapping
+    of :class:`CascadeController`'s docstring: ``wv = D kt / M``, ``kp = P / D``,
+    ``kpi = I / D``, the derivative filter's pole ``T_f / (T_f + ts)``; the unfiltered velocity
+    feedforward folded into ``kvff``), at the simulator's loop period."""
+    from fricbench.axis import plant as PL
+    from fricbench.sysid.diagnose import closed_loop as CL
+    from fricbench.sysid.diagnose.controllers import CascadeController
+    from fricbench.sysid.diagnose.models import GreyBox
+
+    c, pl = case.ctrl, case.plant
+    if c.law != "pid":
+        raise ValueError(f"case {case.kind}/{case.seed}: law {c.law!r}, expected 'pid'")
+    ctrl = CascadeController(wv=c.kt * c.d / pl.mass, kp=c.p / c.d, kvff=1.0 + c.ff1 / c.d,
+                             kaff=c.kt * c.ff2 / pl.mass, kpi=c.i / c.d,
+                             vel_pole=c.tf / (c.tf + S.LOOP_TS))
+    row = CL.default_plant(1.0, pl.damping / pl.mass)
+    row[PL.DELAY] = c.delay
+    row[CL.I_FC] = pl.coulomb / pl.mass
+    return GreyBox(ctrl, row, ("coulomb_friction",))
+
+
 def bad_numbers(obj: object, path: str = "") -> list[str]:
     """Key paths of the null, NaN and inf values anywhere in a parsed JSON document."""
     if isinstance(obj, dict):

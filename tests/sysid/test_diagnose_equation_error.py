@@ -90,6 +90,8 @@ def test_a_mask_keeps_the_fit_on_its_samples(stribeck_10: tuple) -> None:
     (dict(effects=("backlash",)), "effects="),
     (dict(n_best=0), "n_best=0"),
     (dict(n_best=True), "n_best=True"),
+    (dict(delays=()), "delays=()"),
+    (dict(delays=(-1,)), "delays="),
 ])
 def test_bad_arguments_are_named(stribeck_10: tuple, kwargs: dict, match: str) -> None:
     _, prep, bounds = stribeck_10
@@ -103,3 +105,55 @@ def test_the_same_run_gives_the_same_numbers(stribeck_10: tuple) -> None:
     b = loop_by_equation_error(prep, bounds, _STRIBECK)
     assert [f.model.controller for f in a] == [f.model.controller for f in b]
     assert all(np.array_equal(f.model.plant, g.model.plant) for f, g in zip(a, b, strict=True))
+
+
+def test_a_pid_with_a_delay_is_fitted_with_its_delay(tmp_path: object) -> None:
+    """control/10 of the sweep: a PID with a filtered derivative and a 3-sample command delay,
+    no effort. The equation error's starts, one per delay, give the friction-aware fit the
+    delay, and it comes within 1.5 times the true loop's error (10.3 times from the standard
+    loops without a delay); the diagnosis's loops carry it and the position error falls to the
+    noise floor (48.1 urad before, 4.46 urad floor)."""
+    from fricbench.sysid.diagnose import diagnosis as D
+    from fricbench.sysid.diagnose.models import simulate_position
+
+    case = S.draw_case("control", 10)
+    assert case.ctrl.law == "pid" and case.ctrl.delay == 3 and case.variant.effort is None
+    prep = C.position_only(case, str(tmp_path))
+    y_true, _ = simulate_position(C.true_pid_loop(case), prep)
+    linear, _, bounds, _ = fit_linear_cascade(prep)
+    fit = friction_aware_fit(linear, prep, bounds)
+    assert fit is not None
+    assert fit.model.plant[CL.I_DELAY] == 3
+
+    def rms(y: np.ndarray) -> float:
+        return float(np.sqrt(np.mean((prep.x - y) ** 2)))
+
+    assert rms(fit.y) <= 1.5 * rms(y_true), (rms(fit.y), rms(y_true))
+    base = D._loop_base(prep, 10)
+    assert base.linear.plant[CL.I_DELAY] == 3
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, C.format_row(outcome)
+    report = outcome.report
+    assert report is not None
+    assert report["position"]["rms_after"] <= 1.25 * case.floor
+    assert "delayed by 3 loop periods (3 ms)" in report["controller_laws"]["train"]
+    assert report["linear_model"]["model"]["plant"]["command_delay_loop_periods"] == 3
+
+
+def test_a_loop_gain_pushed_to_its_bound_is_named(stribeck_10: tuple) -> None:
+    """The check that refuses an equation error's loop refined onto a bound: a feedforward at
+    its largest or a position integral at its least is named; no feedforward and no derivative
+    filter (lower bounds of 0) are values a loop has, not bounds."""
+    from dataclasses import replace
+
+    from fricbench.sysid.diagnose.baselines import _gain_on_bound
+
+    _, prep, bounds = stribeck_10
+    model = loop_by_equation_error(prep, bounds, n_best=1)[0].model
+    assert _gain_on_bound(model, bounds) is None
+    c = model.controller
+    assert _gain_on_bound(model.copy(controller=replace(c, kaff=1.5)), bounds) == "kaff"
+    low = replace(c, kpi=1e-3 * c.wv**2)
+    assert _gain_on_bound(model.copy(controller=low), bounds) == "kpi_per_wv2"
+    free = replace(c, kvff=0.0, kaff=0.0, vel_pole=0.0)
+    assert _gain_on_bound(model.copy(controller=free), bounds) is None

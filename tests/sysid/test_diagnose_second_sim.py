@@ -298,26 +298,6 @@ def test_draw_makes_effects_visible_and_is_reproducible() -> None:
     assert a.truth()["effect"] == "position_dependent_friction"
 
 
-def _true_loop(case: S.Case) -> object:
-    """The case's PID law and friction as a grey box per unit mass (the mapping of
-    :class:`CascadeController`'s docstring: ``wv = D kt / M``, ``kp = P / D``, ``kpi = I / D``,
-    the derivative filter's pole ``T_f / (T_f + ts)``; the unfiltered velocity feedforward
-    folded into ``kvff``)."""
-    from fricbench.axis import plant as PL
-    from fricbench.sysid.diagnose import closed_loop as CL
-    from fricbench.sysid.diagnose.controllers import CascadeController
-    from fricbench.sysid.diagnose.models import GreyBox
-
-    c, pl = case.ctrl, case.plant
-    ctrl = CascadeController(wv=c.kt * c.d / pl.mass, kp=c.p / c.d, kvff=1.0 + c.ff1 / c.d,
-                             kaff=c.kt * c.ff2 / pl.mass, kpi=c.i / c.d,
-                             vel_pole=c.tf / (c.tf + T))
-    row = CL.default_plant(1.0, pl.damping / pl.mass)
-    row[PL.DELAY] = c.delay
-    row[CL.I_FC] = pl.coulomb / pl.mass
-    return GreyBox(ctrl, row, ("coulomb_friction",))
-
-
 def test_the_friction_aware_fit_of_a_pid_loop_reaches_the_true_one(tmp_path: object) -> None:
     """A PID loop with a filtered derivative and a 2-sample delay, no effort logged (the
     sweep's thermal/8): the loop and friction fitted together to the position come within 1.5
@@ -330,7 +310,7 @@ def test_the_friction_aware_fit_of_a_pid_loop_reaches_the_true_one(tmp_path: obj
     case = S.draw_case("thermal", 8)
     assert case.ctrl.law == "pid" and case.ctrl.delay == 2 and case.variant.effort is None
     prep = C.position_only(case, str(tmp_path))
-    y_true, _ = simulate_position(_true_loop(case), prep)
+    y_true, _ = simulate_position(C.true_pid_loop(case), prep)
     linear, _, bounds, _ = fit_linear_cascade(prep)
     fit = friction_aware_fit(linear, prep, bounds)
     assert fit is not None

@@ -38,13 +38,25 @@ from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.diagnose.signals import decimate_columns
 
-__all__ = ["EquationErrorFit", "loop_by_equation_error", "FILTER_STEPS", "DELAY_STEPS"]
+__all__ = ["EquationErrorFit", "loop_by_equation_error", "FILTER_STEPS", "DELAY_STEPS",
+           "MAX_DELAY_S", "delay_steps"]
 
 FILTER_STEPS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)
 """Time constants of the derivative filter tried, in log samples (0: no filter)."""
 
 DELAY_STEPS = (0, 1, 2, 3)
 """Command delays tried, in log samples (a drive's computation and power stage)."""
+
+MAX_DELAY_S = 3.0e-3
+"""Longest command delay a model is given, s: a drive's computation and power stage delay its
+command by a few periods of a fast loop. A log at 100 Hz fitted with a loop at its own rate
+took one of 10 ms (a better in-sample fit of a loop that cannot be the drive's) and lost the
+friction its delay-free loop found (control/2 and thermal/2 of the second simulator)."""
+
+
+def delay_steps(ts: float) -> tuple[int, ...]:
+    """The delays of :data:`DELAY_STEPS` a loop of period ``ts`` (s) may have."""
+    return tuple(d for d in DELAY_STEPS if d * ts <= MAX_DELAY_S * (1.0 + 1e-9))
 
 _FRICTION = ("coulomb_friction", "stribeck_friction")
 
@@ -135,8 +147,8 @@ def _plant_by_equation_error(prep: Prepared, b: Bounds, u: np.ndarray, delay: in
 
 
 def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _FRICTION[:1],
-                           *, n_best: int = 2, mask: np.ndarray | None = None
-                           ) -> list[EquationErrorFit]:
+                           *, n_best: int = 2, mask: np.ndarray | None = None,
+                           delays: Sequence[int] = DELAY_STEPS) -> list[EquationErrorFit]:
     """The best loops with friction by equation error over the filter and delay grids.
 
     Two stages: the PID gains, the damping and a Coulomb level together, on the decimated
@@ -159,6 +171,9 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
     mask : ndarray of bool, shape (K,), optional
         The samples the fit may use (a training fold: a start for a held-out test must not
         have seen the held-out samples); default all.
+    delays : sequence of int
+        Command delays tried, log samples (default :data:`DELAY_STEPS`; a model whose delay is
+        already set gives its own).
 
     Returns
     -------
@@ -170,6 +185,10 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
         raise ValueError(f"effects={effects!r}: expected {_FRICTION[:1]!r} or {_FRICTION!r}")
     if isinstance(n_best, bool) or not isinstance(n_best, int) or n_best < 1:
         raise ValueError(f"n_best={n_best!r}: expected an integer >= 1")
+    delays = tuple(delays)
+    if not delays or any(isinstance(d, bool) or not isinstance(d, (int, np.integer)) or d < 0
+                         for d in delays):
+        raise ValueError(f"delays={delays!r}: expected one or more integers >= 0")
     inp = prep.inputs
     ts = inp.ts
     x = np.asarray(prep.x, dtype=float)
@@ -204,7 +223,8 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
                                         _first_order(cols["dx"], pole)]))
         ctrl_cols = np.column_stack([fixed[:, 0], filt[:, 0], -filt[:, 1], fixed[:, 1],
                                      fixed[:, 2], fixed[:, 3]])
-        for d in DELAY_STEPS:
+        for d in delays:
+            d = int(d)
             X = np.hstack([decimate_columns(_shifted(ctrl_cols, d), prep.decim)[rows], plant])
             # wv kp, wv (the sign in its column), wv kpi, the damping and the Coulomb level
             # are not negative

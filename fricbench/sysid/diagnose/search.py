@@ -1255,8 +1255,11 @@ def _equation_error_starts(m: GreyBox, name: str, prep: Prepared, b: Bounds,
             or not isinstance(m.controller, CascadeController)):
         return []
     out = []
+    # under the model's own command delay (a loop property, found with the first friction):
+    # another delay would come in unjudged with the candidate
+    delay = int(m.plant[CL.I_DELAY]) if prep.inputs.n_loop == 1 else 0
     for fit in loop_by_equation_error(prep, b, ("coulomb_friction", name), n_best=1,
-                                      mask=train):
+                                      mask=train, delays=(delay,)):
         st = m.copy(controller=fit.model.controller, effects=m.effects + (name,))
         st.plant[CL.I_B] = min(float(fit.model.plant[CL.I_B]), b.damping_max)
         st.plant[CL.I_VS] = float(fit.model.plant[CL.I_VS])
