@@ -7,7 +7,8 @@ the physics), writes it as a CSV, runs the real command line on it in-process wi
 and prints one row per case: the variant, the effect present and those named, the position
 rms before -> after against the case's noise floor, the verdict (when the report has one),
 whether the diagnosis is right (:mod:`second_sim_check`), why not, and the time the command
-took. The default, 6 kinds x seeds 1..7, is 42 cases; the count of right ones ends the output
+took. The default, 6 kinds x seeds 1..7, is 42 cases; the count of right ones, per logging rate
+and in all, ends the output
 and the exit status is 1 when one is wrong.
 
 Run it with ``PYTHONPATH`` holding the repository (``PYTHONPATH=. python
@@ -85,6 +86,13 @@ def main(argv: list[str] | None = None) -> int:
     false_in_controls = sum(bool(set(o.effects) - S.FRICTION_NAMES) for o in controls)
     times = [o.elapsed for o in outcomes]
     n_nulls = sum(o.wrong_only_by_candidate_nulls for o in outcomes)
+    # by logging rate: a log slower than the drive's loop is the hardest part of the sweep
+    rates = sorted({o.case.variant.log_every for o in outcomes})
+    by_rate = ", ".join(
+        f"logged every {k} loop period{'s' if k > 1 else ''}: "
+        f"{sum(o.ok for o in outcomes if o.case.variant.log_every == k)}/"
+        f"{sum(o.case.variant.log_every == k for o in outcomes)}" for k in rates)
+    print(f"by rate: {by_rate}")
     print(f"{n_ok}/{len(outcomes)} right ({n_ok + n_nulls} if the nulls inside candidate lists "
           f"were not counted); controls with a false effect: {false_in_controls}/"
           f"{len(controls)}; diagnose time per case: mean {sum(times) / max(len(times), 1):.1f}"
