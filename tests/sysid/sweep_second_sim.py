@@ -8,8 +8,7 @@ and prints one row per case: the variant, the effect present and those named, th
 rms before -> after against the case's noise floor, the verdict (when the report has one),
 whether the diagnosis is right (:mod:`second_sim_check`), why not, and the time the command
 took. The default, 6 kinds x seeds 1..7, is 42 cases; the count of right ones, per logging rate
-and in all, ends the output
-and the exit status is 1 when one is wrong.
+and in all, ends the output and the exit status is 1 when one is wrong.
 
 Run it with ``PYTHONPATH`` holding the repository (``PYTHONPATH=. python
 tests/sysid/sweep_second_sim.py``); pytest does not collect it (not a ``test_*.py`` file).
