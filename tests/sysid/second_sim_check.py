@@ -120,6 +120,26 @@ def true_pid_loop(case: S.Case) -> object:
     return GreyBox(ctrl, row, ("coulomb_friction",))
 
 
+def friction_fit_against_truth(case: S.Case, workdir: str | os.PathLike[str]
+                               ) -> tuple[object, object, float, float]:
+    """The friction-aware fit of a PID case's run, without its effort, beside its true loop:
+    ``(prep, fit, rms of the true loop, rms of the fit)``, m or rad."""
+    import numpy as np
+
+    from fricbench.sysid.diagnose.baselines import fit_linear_cascade, friction_aware_fit
+    from fricbench.sysid.diagnose.models import simulate_position
+
+    prep = position_only(case, workdir)
+    y_true, _ = simulate_position(true_pid_loop(case), prep)  # type: ignore[arg-type]
+    linear, _, bounds, _ = fit_linear_cascade(prep)  # type: ignore[arg-type]
+    fit = friction_aware_fit(linear, prep, bounds)  # type: ignore[arg-type]
+    if fit is None:
+        raise AssertionError(f"{case.kind}/{case.seed}: no friction-aware fit")
+    x = prep.x  # type: ignore[attr-defined]
+    return (prep, fit, float(np.sqrt(np.mean((x - y_true) ** 2))),
+            float(np.sqrt(np.mean((x - fit.y) ** 2))))
+
+
 def bad_numbers(obj: object, path: str = "") -> list[str]:
     """Key paths of the null, NaN and inf values anywhere in a parsed JSON document."""
     if isinstance(obj, dict):

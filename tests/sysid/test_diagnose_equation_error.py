@@ -114,21 +114,12 @@ def test_a_pid_with_a_delay_is_fitted_with_its_delay(tmp_path: object) -> None:
     loops without a delay); the diagnosis's loops carry it and the position error falls to the
     noise floor (48.1 urad before, 4.46 urad floor)."""
     from fricbench.sysid.diagnose import diagnosis as D
-    from fricbench.sysid.diagnose.models import simulate_position
 
     case = S.draw_case("control", 10)
     assert case.ctrl.law == "pid" and case.ctrl.delay == 3 and case.variant.effort is None
-    prep = C.position_only(case, str(tmp_path))
-    y_true, _ = simulate_position(C.true_pid_loop(case), prep)
-    linear, _, bounds, _ = fit_linear_cascade(prep)
-    fit = friction_aware_fit(linear, prep, bounds)
-    assert fit is not None
+    prep, fit, truth, fitted = C.friction_fit_against_truth(case, str(tmp_path))
     assert fit.model.plant[CL.I_DELAY] == 3
-
-    def rms(y: np.ndarray) -> float:
-        return float(np.sqrt(np.mean((prep.x - y) ** 2)))
-
-    assert rms(fit.y) <= 1.5 * rms(y_true), (rms(fit.y), rms(y_true))
+    assert fitted <= 1.5 * truth, (fitted, truth)
     base = D._loop_base(prep, 10)
     assert base.linear.plant[CL.I_DELAY] == 3
     outcome = C.diagnose_case(case, str(tmp_path))

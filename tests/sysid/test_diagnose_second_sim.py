@@ -305,17 +305,11 @@ def test_the_friction_aware_fit_of_a_pid_loop_reaches_the_true_one(tmp_path: obj
     the light friction start alone the fit settled at 4.8 times (a high damping and no
     acceleration feedforward standing in for the friction)."""
     from fricbench.sysid.diagnose.baselines import fit_linear_cascade, friction_aware_fit
-    from fricbench.sysid.diagnose.models import simulate_position
 
     case = S.draw_case("thermal", 8)
     assert case.ctrl.law == "pid" and case.ctrl.delay == 2 and case.variant.effort is None
-    prep = C.position_only(case, str(tmp_path))
-    y_true, _ = simulate_position(C.true_pid_loop(case), prep)
+    prep, _, truth, fitted = C.friction_fit_against_truth(case, str(tmp_path))
     linear, _, bounds, _ = fit_linear_cascade(prep)
-    fit = friction_aware_fit(linear, prep, bounds)
-    assert fit is not None
-    truth = float(np.sqrt(np.mean((prep.x - y_true) ** 2)))
-    fitted = float(np.sqrt(np.mean((prep.x - fit.y) ** 2)))
     assert fitted <= 1.5 * truth, (fitted, truth)
     with pytest.raises(ValueError, match="friction_starts"):
         friction_aware_fit(linear, prep, bounds, friction_starts=())
