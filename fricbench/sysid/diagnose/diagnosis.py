@@ -484,6 +484,20 @@ class _LoopBase:
     with_friction: GreyBox | None = None
 
 
+def _refit_linear(linear: GreyBox, prep: Prepared, bounds: Bounds, column: int, value: float
+                  ) -> tuple[GreyBox, np.ndarray] | None:
+    """The linear loop refitted to the position (its gains free) with plant entry ``column``
+    set to ``value`` (a drive's limit or command delay, found after the gains were fitted),
+    and its free run; None when that loop diverges or runs away from the position."""
+    start = linear.copy(plant=linear.plant.copy())
+    start.plant[column] = value
+    refit = PositionFit(prep, position_params(start, bounds, controller=True)).run(
+        start, max_iter=15)
+    if not np.all(np.isfinite(refit.y)) or _runs_away(prep, refit.y):
+        return None
+    return refit.model, refit.y
+
+
 def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
     """The linear loop fitted to the position, the loop fitted with friction (and the
     drive's limit when one shows) that the search also tries, and the squared error of the
@@ -507,12 +521,9 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
             # the loop fitted with friction holds a command delay (from the equation error's
             # starts): it is the drive's, as a limit is, and every model of the run gets it,
             # the linear one refitted with it
-            lin_d = linear.copy(plant=linear.plant.copy())
-            lin_d.plant[CL.I_DELAY] = delay
-            refit = PositionFit(prep, position_params(lin_d, bounds, controller=True)).run(
-                lin_d, max_iter=15)
-            if np.all(np.isfinite(refit.y)) and not _runs_away(prep, refit.y):
-                linear, y_lin = refit.model, refit.y
+            refit = _refit_linear(linear, prep, bounds, CL.I_DELAY, delay)
+            if refit is not None:
+                linear, y_lin = refit
                 cost = min(cost, float(np.sum((prep.x - y_lin) ** 2)))
             else:
                 fit = None  # a delay the linear loop cannot hold: the search runs without
@@ -523,15 +534,12 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
         if limit is not None:
             # the drive clips: every model of the run (the linear one included, as with a
             # clipping effort) runs with the limit
-            linear = linear.copy(plant=linear.plant.copy())
-            linear.plant[CL.I_IMAX] = limit.level
             # the linear loop refitted under the limit (its gains were fitted without one)
-            refit = PositionFit(prep, position_params(linear, bounds, controller=True)).run(
-                linear, max_iter=15)
-            linear, y_lin = refit.model, refit.y
-            if not np.all(np.isfinite(y_lin)) or _runs_away(prep, y_lin):
+            refit = _refit_linear(linear, prep, bounds, CL.I_IMAX, limit.level)
+            if refit is None:
                 raise DiagnosisError("no valid linear model of this run: the linear loop "
                                      "with the identified drive limit diverges")
+            linear, y_lin = refit
             cost = min(cost, limit.sse_ratio * fit_sse)
         # the alternative loop: the one fitted with the limit and friction together when the
         # drive clips, else the loop fitted with friction (with the linear plant refitted)
