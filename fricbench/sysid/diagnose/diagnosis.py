@@ -551,8 +551,11 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
 
 
 def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
-                  log: Callable[[str], None], t0: float) -> _ModeFit:
-    """The search on the position alone: a loop fitted to the position, forces per unit mass."""
+                  log: Callable[[str], None], t0: float,
+                  effort_check: InverseDynamics | None = None) -> _ModeFit:
+    """The search on the position alone: a loop fitted to the position, forces per unit mass
+    (``effort_check``: the regression of an effort the run logs but whose law was set aside,
+    which a force effect must not contradict)."""
     notes = ["no effort column: forces are reported per unit mass (m/s^2)"]
     warnings: list[str] = []
     laws = {"train": "a cascade fitted to the training run's position"}
@@ -602,7 +605,8 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
               else (base.with_friction,) if delayed and base.with_friction is not None
               else ())
     search = forward_selection(linear, y_lin, prep, bounds, idim=None, w=None, jac=jac,
-                               settings=settings, alt_loops=alt, alt_starts=starts, log=log)
+                               settings=settings, alt_loops=alt, alt_starts=starts,
+                               effort_check=effort_check, log=log)
     log(f"stop: {search.stop_reason}")
     final = search.final.model
     if isinstance(final.controller, CascadeController) and final.controller.is_pid:
@@ -622,7 +626,7 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
 
 def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: float,
                settings: SearchSettings | None, log: Callable[[str], None],
-               t0: float) -> _ModeFit:
+               t0: float, idim: InverseDynamics | None = None) -> _ModeFit:
     """The effort's diagnosis, or the position's when it predicts the position clearly better.
 
     A law identified from a logged effort reproduces the drive's loop only when the log holds
@@ -646,7 +650,7 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
         return effort  # at the noise floor: nothing a loop fitted to the position could add
     log("checking the effort's loop against a loop fitted to the position alone")
     try:
-        pos = _fit_position(run, prep_pos, settings, log, t0)
+        pos = _fit_position(run, prep_pos, settings, log, t0, effort_check=idim)
     except DiagnosisError:
         return effort
     rms_p = math.sqrt(pos.sse / n)
@@ -781,7 +785,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                               (w, share, used), force_unit, settings, log, t0)
             if (ctrl_err > LAW_EXACT_PCT or not fit.finite
                     or int(round(prep.ts / LOOP_TS)) >= 2):
-                fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0)
+                fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0, idim)
                 if fit.mode == "position" and fit.comparison is not None:
                     # what the per-unit-mass forces are in the effort's unit: the mass the
                     # inverse dynamics gives with Coulomb friction (none when it is not
@@ -794,7 +798,9 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                             "note": "inverse dynamics with Coulomb friction: a force per unit "
                                     f"mass times this is the force in {force_unit}"}
     if fit is None:
-        fit = _fit_position(run, prep_pos, settings, log, t0)
+        # a law that cannot drive the loop leaves the effort a measured force all the same
+        fit = _fit_position(run, prep_pos, settings, log, t0,
+                            effort_check=idim if prep.u is not None else None)
     prep, mode, fu, linear, search, train = (fit.prep, fit.mode, fit.force_unit, fit.linear,
                                              fit.search, fit.train)
     final = search.final.model

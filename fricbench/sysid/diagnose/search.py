@@ -1053,10 +1053,33 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
     return None
 
 
+def _effort_check_ratio(idim: InverseDynamics, base: GreyBox,
+                        fits: dict[int, PositionFitResult]) -> float:
+    """Held-out effort error of the force effects of the fold fits ``fits`` against those of
+    ``base``, by inverse dynamics on the logged effort (a run diagnosed on its position whose
+    law was set aside). Only the shapes (periods, Stribeck velocities) come from the position's
+    fits, refined; the mass, damping and force levels are fitted to each training fold's effort,
+    in the effort's unit, and judged on the sliding rows of the other fold."""
+    prep = idim.prep
+
+    def forces(m: GreyBox) -> tuple[str, ...]:
+        return tuple(e for e in m.effects if get_effect(e).kind == "force")
+
+    sse = {"base": 0.0, "cand": 0.0}
+    for k, res in fits.items():
+        train = prep.folds_dec != k
+        rows = ~train & prep.sliding_dec
+        for key, m in (("base", base), ("cand", res.model)):
+            q = idim.fit(forces(m), m.plant, train)
+            sse[key] += sumsq((idim.u_dec - idim.predict(q))[rows])
+    return sse["cand"] / max(sse["base"], 1e-300)
+
+
 def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
                            settings: SearchSettings, log: Callable[[str], None],
                            jac: np.ndarray | None, warnings: list[str], alt_loops: tuple = (),
                            budget_iter: int = 5, alt_starts: tuple = (),
+                           effort_check: InverseDynamics | None = None,
                            ) -> tuple[list[Step], str, float]:
     steps = [Step(None, model, y, _rms(prep.x - y), float(np.max(np.abs(prep.x - y))), None)]
     floor_linear = max(prediction_floor(model, prep), prep.noise.rms)
@@ -1169,12 +1192,27 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             size = min(sizes)
             sc = CandidateScore(name, n_par, rho, "position", size / floor,
                                 size >= settings.min_size(name) * floor, note)
+            effort_note = ""
+            if effort_check is not None and get_effect(name).kind == "force":
+                effort_ratio = _effort_check_ratio(effort_check, m, fits)
+                effort_note = f", effort x{effort_ratio:.3f}"
+                if effort_ratio > 1.0 + EFFORT_TOLERANCE:
+                    # the logged effort is a measured force even where the law computed from it
+                    # is not the drive's: a force it contradicts is no force of the axis (a
+                    # ripple of 0.8 % of the Coulomb level fitted beside a backlash, x2.44). Its
+                    # verdict is coarse on a short slow log (30-40 sliding rows per fold): a
+                    # friction level varying along the stroke that was there went too (x1.76,
+                    # as the effort's own search judged it), a miss rather than a false effect
+                    sc.size_ok = False
+                    sc.note += (f"; rejected: it makes the held-out effort error worse "
+                                f"(x{effort_ratio:.3f})")
+                    effort_note += " rejected"
             scores.append(sc)
             confirmed[name] = fits
             if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
                 negligible.add(name)
             log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
-                f"size {size / floor:.2f} x floor"
+                f"size {size / floor:.2f} x floor{effort_note}"
                 + (f" (one block left out: x{heldout / max(base_heldout, 1e-300):.3f} with it)"
                    if left_out is not None else ""))
         for name, (ratio, _, _) in [kv for kv in ranked if kv not in chosen]:
@@ -1374,6 +1412,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                       idim: InverseDynamics | None = None, w: np.ndarray | None = None,
                       jac: np.ndarray | None = None, settings: SearchSettings | None = None,
                       alt_loops: tuple = (), alt_starts: tuple = (),
+                      effort_check: InverseDynamics | None = None,
                       log: Callable[[str], None] | None = None) -> SearchResult:
     """Add effects to the linear ``model`` while they help on held-out data.
 
@@ -1397,6 +1436,10 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     alt_starts : tuple of GreyBox
         Models of one effect each (a loop fitted with it) the first step's fit of that effect
         also starts from (runs without effort).
+    effort_check : InverseDynamics, optional
+        The effort regression of a run diagnosed on its position although it logs an effort
+        (its law was set aside): a force effect that makes the held-out effort error worse by
+        more than :data:`EFFORT_TOLERANCE` is rejected (without ``idim`` only).
     log : callable, optional
         Receives progress lines.
 
@@ -1431,7 +1474,8 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     else:
         steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log, jac,
                                                       warnings, alt_loops,
-                                                      alt_starts=alt_starts)
+                                                      alt_starts=alt_starts,
+                                                      effort_check=effort_check)
         # backward elimination: an effect a later one made unnecessary is dropped and the
         # search run again without it (so that every step is one the final model keeps)
         for _ in range(len(settings.candidates)):
@@ -1446,7 +1490,8 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                 c for c in settings.candidates if c != name))
             steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log,
                                                           jac, warnings, alt_loops,
-                                                          alt_starts=alt_starts)
+                                                          alt_starts=alt_starts,
+                                                          effort_check=effort_check)
     # a repeated search rejects the same artefacts again: each warning once
     return SearchResult(steps, reason, floor, time.perf_counter() - t0,
                         list(dict.fromkeys(warnings)))
