@@ -142,6 +142,35 @@ def test_inverse_dynamics_finds_a_cogging_period_continuously():
     assert par["amplitude_N"] == pytest.approx(150.0, rel=0.15)
 
 
+def test_inverse_dynamics_finds_a_cogging_period_longer_than_half_the_stroke():
+    """A ripple whose period is 0.7 of the stroke (1.4 periods over it): the period is searched
+    up to the stroke (``MIN_PERIODS_IN_STROKE``), found within 2 %, and the direction-independent
+    ripple explains the held-out effort better than a friction level varying along the stroke
+    with the same period (which changes sign with the motion). With periods searched only up to
+    half the stroke, the second simulator's cogging/12 (0.70 of its stroke) was named a
+    position-dependent friction."""
+    from fricbench.sysid.diagnose.signals import MIN_PERIODS_IN_STROKE
+
+    ref = _reference(duration=10.0)
+    stroke = float(np.ptp(ref.x))
+    period = 0.7 * stroke
+    assert period <= stroke / MIN_PERIODS_IN_STROKE
+    axis = Axis().with_effects(cogging_amplitude=150.0, cogging_period=period,
+                               cogging_phase=0.4)
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
+    idim = InverseDynamics(prep, res.u)
+    base = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    p = idim.fit(("coulomb_friction", "cogging"), base, new="cogging")
+    assert describe_parameters("cogging", p, "N")["period_m"] == pytest.approx(period, rel=0.02)
+    sse_base, _ = idim.cv_sse(("coulomb_friction",), base)
+    sse_cog, _ = idim.cv_sse(("coulomb_friction", "cogging"), base, new="cogging")
+    sse_pd, _ = idim.cv_sse(("coulomb_friction", "position_dependent_friction"), base,
+                            new="position_dependent_friction")
+    assert sse_cog < 0.5 * sse_base
+    assert sse_cog < sse_pd
+
+
 def test_period_candidates_on_a_synthetic_residual():
     rng = np.random.default_rng(0)
     x = np.cumsum(rng.uniform(-1e-5, 1e-5, 20000)) + np.linspace(0, 0.05, 20000)

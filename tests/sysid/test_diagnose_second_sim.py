@@ -433,6 +433,29 @@ def test_a_semi_closed_pid_logged_slower_runs_its_loop_at_the_drives_rate(tmp_pa
     assert report is not None
     assert any("periods per logged sample" in n for n in report["notes"]), report["notes"]
     assert "backlash" in report["effects"]
+    # the position alone fits a ripple of 0.72 strokes (0.8 % of the Coulomb level, held-out
+    # position x0.49) beside the backlash; the logged current contradicts it
+    notes = [c.get("note", "") for c in report["rejected_at_last_step"]
+             if c["effect"] == "cogging"]
+    assert notes and "makes the held-out effort error worse" in notes[0], notes
+
+
+def test_a_cogging_of_less_than_two_periods_is_told_from_a_friction_level(tmp_path: object
+                                                                            ) -> None:
+    """A cogging of 0.70 of the logged stroke on a rotary cascade with a 1-sample delay and its
+    current logged (the sweep's cogging/12): its period is searched up to the stroke, the
+    logged current confirms it (the held-out effort error of the position's fit falls 300x) and
+    no position-dependent friction stands in for it (it did while periods stopped at half the
+    stroke)."""
+    case = S.draw_case("cogging", 12)
+    assert case.variant.effort == "A" and case.variant.unit == "rad"
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert "position_dependent_friction" not in report["effects"]
+    period = report["steps"][report["effects"].index("cogging")]["parameters"]["period_rad"]
+    assert period == pytest.approx(case.plant.cogging_period, rel=0.05)
 
 
 def test_a_noisy_effort_hands_the_force_effects_to_the_position(tmp_path: object) -> None:

@@ -19,9 +19,18 @@ __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floo
            "block_folds", "fold_blocks", "period_candidates", "MIN_PERIODS_IN_STROKE",
            "choose_filter", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
 
-MIN_PERIODS_IN_STROKE = 2.0
-"""Fewest periods of a periodic force (cogging) the stroke must cover for it to be searched:
-two periods tell a ripple from a friction level that changes along the stroke."""
+MIN_PERIODS_IN_STROKE = 1.0
+"""Fewest periods of a periodic force (cogging) the stroke must cover for it to be searched (a
+longer period is a level change, and :func:`~fricbench.sysid.diagnose.search.artefact` rejects
+it). One period is enough because a ripple is told from a friction level that changes along the
+stroke by the direction of motion, not by the number of periods: a ripple pushes the same way in
+both directions, a friction level against the motion. At two periods (the rule before), the
+second simulator's cogging/12 (a period of 0.70 of the stroke) was fitted as a
+position-dependent friction, and cogging/5 was missed; at one period both are found. A fit to
+the position alone can then also take a long ripple for what its loop model misses (a 100 Hz
+semi-closed PID run with backlash, backlash/5: a ripple of 0.72 strokes and 0.8 % of the Coulomb
+level, held-out position x0.49); where the run logs an effort, the effort rejects it (see
+``effort_check`` of :func:`~fricbench.sysid.diagnose.search.forward_selection`)."""
 
 
 def filtered_derivatives(x: np.ndarray, ts: float, cutoff_hz: float,
