@@ -127,15 +127,21 @@ def test_inverse_dynamics_held_out_error_per_block_adds_up():
         np.testing.assert_array_equal(a, b)
 
 
-def test_inverse_dynamics_finds_a_cogging_period_continuously():
+def _cogging_fit(period: float) -> tuple[InverseDynamics, np.ndarray, np.ndarray]:
+    """A 10 s run of fricbench's axis with a 150 N cogging of ``period`` (m): its inverse
+    dynamics, the Coulomb-only fit and the fit with the cogging found."""
     ref = _reference(duration=10.0)
-    axis = Axis().with_effects(cogging_amplitude=150.0, cogging_period=3.37e-3,
+    axis = Axis().with_effects(cogging_amplitude=150.0, cogging_period=period,
                                cogging_phase=0.4)
     res = simulate(axis, ref)
     prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
     idim = InverseDynamics(prep, res.u)
     base = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
-    p = idim.fit(("coulomb_friction", "cogging"), base, new="cogging")
+    return idim, base, idim.fit(("coulomb_friction", "cogging"), base, new="cogging")
+
+
+def test_inverse_dynamics_finds_a_cogging_period_continuously():
+    _, _, p = _cogging_fit(3.37e-3)
     par = describe_parameters("cogging", p, "N")
     # not a grid value: the period is refined continuously
     assert par["period_m"] == pytest.approx(3.37e-3, rel=2e-3)
@@ -151,17 +157,10 @@ def test_inverse_dynamics_finds_a_cogging_period_longer_than_half_the_stroke():
     position-dependent friction."""
     from fricbench.sysid.diagnose.signals import MIN_PERIODS_IN_STROKE
 
-    ref = _reference(duration=10.0)
-    stroke = float(np.ptp(ref.x))
+    stroke = float(np.ptp(_reference(duration=10.0).x))
     period = 0.7 * stroke
     assert period <= stroke / MIN_PERIODS_IN_STROKE
-    axis = Axis().with_effects(cogging_amplitude=150.0, cogging_period=period,
-                               cogging_phase=0.4)
-    res = simulate(axis, ref)
-    prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
-    idim = InverseDynamics(prep, res.u)
-    base = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
-    p = idim.fit(("coulomb_friction", "cogging"), base, new="cogging")
+    idim, base, p = _cogging_fit(period)
     assert describe_parameters("cogging", p, "N")["period_m"] == pytest.approx(period, rel=0.02)
     sse_base, _ = idim.cv_sse(("coulomb_friction",), base)
     sse_cog, _ = idim.cv_sse(("coulomb_friction", "cogging"), base, new="cogging")
