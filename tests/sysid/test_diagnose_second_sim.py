@@ -417,6 +417,9 @@ def test_a_law_fitted_on_a_slower_log_is_never_taken_as_the_drives_own(tmp_path:
     assert cmp["chosen"] == "position"
     assert cmp["position"]["position_rms_m"] < 0.25 * cmp["effort"]["position_rms_m"]
     assert "thermal_drift" in report["effects"]
+    # the position's PID has its derivative filter on the lower bound: the law says there is
+    # none (it read "derivative filter 3.4e-06 ms")
+    assert "no derivative filter" in report["controller_laws"]["train"], report["controller_laws"]
 
 
 def test_a_semi_closed_pid_logged_slower_runs_its_loop_at_the_drives_rate(tmp_path: object

@@ -550,6 +550,11 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
                      fit.model if fit is not None else None)
 
 
+NO_FILTER_SHARE = 0.01
+"""A PID's derivative filter whose time constant is below this share of the loop period is
+reported as none (it delays the derivative by less than a hundredth of a period)."""
+
+
 def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
                   log: Callable[[str], None], t0: float,
                   effort_check: InverseDynamics | None = None) -> _ModeFit:
@@ -611,10 +616,13 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
     final = search.final.model
     if isinstance(final.controller, CascadeController) and final.controller.is_pid:
         g = final.controller.pid_gains(prep.inputs.loop_ts)
+        # a filter pole on its lower bound 0 reads as a time constant of a few nanoseconds
+        flt = ("no derivative filter" if g["tf_s"] < NO_FILTER_SHARE * prep.inputs.loop_ts
+               else f"derivative filter {1e3 * g['tf_s']:.3g} ms")
         laws["train"] = ("a PID position loop fitted to the training run's position with "
                          f"friction (per unit mass: P {g['p_1_s2']:.4g} 1/s^2, I "
-                         f"{g['i_1_s3']:.4g} 1/s^3, D {g['d_1_s']:.4g} 1/s, derivative filter "
-                         f"{1e3 * g['tf_s']:.3g} ms); the linear model's loop is a cascade")
+                         f"{g['i_1_s3']:.4g} 1/s^3, D {g['d_1_s']:.4g} 1/s, {flt}); the "
+                         "linear model's loop is a cascade")
     delay = int(final.plant[CL.I_DELAY])
     if delay > 0:
         laws["train"] += (f"; every model's command is delayed by {delay} loop period"
