@@ -1053,26 +1053,26 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
     return None
 
 
-def _effort_check_ratio(idim: InverseDynamics, base: GreyBox,
+def _forces(m: GreyBox) -> tuple[str, ...]:
+    return tuple(e for e in m.effects if get_effect(e).kind == "force")
+
+
+def _effort_check_ratio(idim: InverseDynamics, base_sse: float,
                         fits: dict[int, PositionFitResult]) -> float:
-    """Held-out effort error of the force effects of the fold fits ``fits`` against those of
-    ``base``, by inverse dynamics on the logged effort (a run diagnosed on its position whose
-    law was set aside). Only the shapes (periods, Stribeck velocities) come from the position's
-    fits, refined; the mass, damping and force levels are fitted to each training fold's effort,
-    in the effort's unit, and judged on the sliding rows of the other fold."""
+    """Held-out effort error of the force effects of the fold fits ``fits`` against
+    ``base_sse``, the held-out effort error of the model without the candidate
+    (:meth:`InverseDynamics.cv_sse`), by inverse dynamics on the logged effort (a run diagnosed
+    on its position whose law was set aside). Only the shapes (periods, Stribeck velocities)
+    come from the position's fits, refined; the mass, damping and force levels are fitted to
+    each training fold's effort, in the effort's unit, and judged on the sliding rows of the
+    other fold, as :meth:`InverseDynamics.cv_sse` does with one start for both folds."""
     prep = idim.prep
-
-    def forces(m: GreyBox) -> tuple[str, ...]:
-        return tuple(e for e in m.effects if get_effect(e).kind == "force")
-
-    sse = {"base": 0.0, "cand": 0.0}
+    sse = 0.0
     for k, res in fits.items():
         train = prep.folds_dec != k
-        rows = ~train & prep.sliding_dec
-        for key, m in (("base", base), ("cand", res.model)):
-            q = idim.fit(forces(m), m.plant, train)
-            sse[key] += sumsq((idim.u_dec - idim.predict(q))[rows])
-    return sse["cand"] / max(sse["base"], 1e-300)
+        q = idim.fit(_forces(res.model), res.model.plant, train)
+        sse += sumsq((idim.u_dec - idim.predict(q))[~train & prep.sliding_dec])
+    return sse / max(base_sse, 1e-300)
 
 
 def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
@@ -1143,6 +1143,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             base_blocks = np.concatenate([base_blocks, _block_sse(fk.y, prep, k)])
         scores: list[CandidateScore] = []
         confirmed: dict[str, dict[int, PositionFitResult]] = {}
+        effort_base: float | None = None
         n_confirm = settings.n_confirm + (1 if len(loops) > 1 else 0)
         chosen = ranked[:n_confirm]
         # friction is the first suspect in any servo axis, and its linearised screen is the
@@ -1194,7 +1195,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                                 size >= settings.min_size(name) * floor, note)
             effort_note = ""
             if effort_check is not None and get_effect(name).kind == "force":
-                effort_ratio = _effort_check_ratio(effort_check, m, fits)
+                if effort_base is None:  # the model without the candidate: once per step
+                    effort_base, _ = effort_check.cv_sse(_forces(m), m.plant)
+                effort_ratio = _effort_check_ratio(effort_check, effort_base, fits)
                 effort_note = f", effort x{effort_ratio:.3f}"
                 if effort_ratio > 1.0 + EFFORT_TOLERANCE:
                     # the logged effort is a measured force even where the law computed from it
