@@ -100,12 +100,44 @@ def _shifted(col: np.ndarray, d: int) -> np.ndarray:
     return out
 
 
-def _command(ctrl: CascadeController, cols: dict[str, np.ndarray], steps: float) -> np.ndarray:
-    """The PID law's command per unit mass on the measured motion (its filter at ``steps``)."""
+def _running_integral(col: np.ndarray, ts: float) -> np.ndarray:
+    """``ts`` times the sum of ``col`` before each sample (the integral a law holds then)."""
+    return ts * np.concatenate([[0.0], np.cumsum(col)[:-1]])
+
+
+def _command(ctrl: CascadeController, cols: dict[str, np.ndarray], steps: float,
+             ts: float) -> np.ndarray:
+    """The law's command per unit mass on the measured motion (its filter at ``steps``):
+    ``wv (e_v + I) + kaff a_r`` with ``e_v = kp e + F (kvff v_r - v_x)`` and
+    ``I = int(ki e_v + kpi e)``."""
     pole = steps / (steps + 1.0)
-    return (ctrl.wv * (ctrl.kp * cols["e"] + ctrl.kvff * _first_order(cols["vr"], pole)
-                       - _first_order(cols["dx"], pole))
-            + ctrl.wv * ctrl.kpi * cols["s_e"] + ctrl.kaff * cols["ar"])
+    e_v = ctrl.kp * cols["e"] + _first_order(ctrl.kvff * cols["vr"] - cols["dx"], pole)
+    integral = _running_integral(ctrl.ki * e_v + ctrl.kpi * cols["e"], ts)
+    return ctrl.wv * (e_v + integral) + ctrl.kaff * cols["ar"]
+
+
+KI_KVFF_MIN = 0.02
+"""Smallest ``|kvff - 1|`` from which the velocity integral's rate ``ki`` is read off the
+regression: ``ki`` only shows through the integral of ``(kvff - 1) v_r``; nearer 1 the law is
+taken for a PID (with ``kvff = 1`` a P-PI cascade is one: ``kp' = kp + ki``, ``kpi = ki kp``)."""
+
+
+def _law(coef: np.ndarray, pole: float) -> CascadeController:
+    """The law of one regression's coefficients (``wv kp'``, ``wv kvff``, ``wv``,
+    ``wv (ki kp + kpi)``, ``kaff``, the integral's start, ``wv ki (kvff - 1)``; ``kp' = kp +
+    ki``, the velocity integral acting like a position gain on the error). A cascade with
+    the velocity PI's integral when the feedforward is far enough from 1 and the gains come
+    out positive, else a PID."""
+    wv = float(coef[2])
+    kp_all, kvff, k_se = float(coef[0]) / wv, float(coef[1]) / wv, float(coef[3]) / wv
+    if abs(kvff - 1.0) >= KI_KVFF_MIN:
+        ki = float(coef[6]) / (wv * (kvff - 1.0))
+        kp = kp_all - ki
+        if ki > 0.0 and kp > 0.0:
+            return CascadeController(wv=wv, kp=kp, ki=ki, kvff=kvff, kaff=float(coef[4]),
+                                     kpi=max(k_se - ki * kp, 0.0), vel_pole=pole)
+    return CascadeController(wv=wv, kp=kp_all, kvff=kvff, kaff=float(coef[4]),
+                             kpi=max(k_se, 1e-9 * wv * wv), vel_pole=pole)
 
 
 def _plant_by_equation_error(prep: Prepared, b: Bounds, u: np.ndarray, delay: int,
@@ -215,20 +247,26 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
         return []
     lhs = decimate_columns(prep.af, prep.decim)[rows]
     plant = decimate_columns(np.column_stack([-prep.vf, -np.sign(prep.vf)]), prep.decim)[rows]
-    fixed = lowpass(np.column_stack([e, cols["s_e"], inp.ar, np.ones_like(e)]))
+    # a slow trend of the measured position (a thermal growth the drive's own encoder does not
+    # see) enters the error and its integral: a cubic in time takes it, not the gains
+    tau = (inp.t - inp.t[0]) / max(float(inp.t[-1] - inp.t[0]), ts)
+    fixed = lowpass(np.column_stack([e, cols["s_e"], inp.ar, np.ones_like(e),
+                                     tau, tau ** 2, tau ** 3]))
     best: dict[int, tuple[float, CascadeController, float]] = {}
     for steps in FILTER_STEPS:
         pole = steps / (steps + 1.0)
-        filt = lowpass(np.column_stack([_first_order(inp.vr, pole),
-                                        _first_order(cols["dx"], pole)]))
+        f_vr = _first_order(inp.vr, pole)
+        filt = lowpass(np.column_stack([f_vr, _first_order(cols["dx"], pole),
+                                        _running_integral(f_vr, ts)]))
         ctrl_cols = np.column_stack([fixed[:, 0], filt[:, 0], -filt[:, 1], fixed[:, 1],
-                                     fixed[:, 2], fixed[:, 3]])
+                                     fixed[:, 2], fixed[:, 3], filt[:, 2], fixed[:, 4:]])
         for d in delays:
             d = int(d)
             X = np.hstack([decimate_columns(_shifted(ctrl_cols, d), prep.decim)[rows], plant])
             # wv kp, wv (the sign in its column), wv kpi, the damping and the Coulomb level
             # are not negative
-            nonneg = np.array([True, False, True, True, False, False, True, True])
+            nonneg = np.array([True, False, True, True, False, False, False] + [False] * 3
+                              + [True, True])
             coef = solve_ls(X, lhs, nonneg)
             wv = float(coef[2])
             if not (wv > 0.0 and np.all(np.isfinite(coef))):
@@ -236,20 +274,16 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
             rel = math.sqrt(sumsq(lhs - X @ coef) / max(sumsq(lhs), 1e-300))
             if d in best and best[d][0] <= rel:
                 continue
-            ctrl = CascadeController(wv=wv, kp=float(coef[0]) / wv, kvff=float(coef[1]) / wv,
-                                     kaff=float(coef[4]),
-                                     kpi=max(float(coef[3]) / wv, 1e-9 * wv * wv),
-                                     vel_pole=pole)
-            best[d] = (rel, ctrl, steps)
+            best[d] = (rel, _law(coef, pole), steps)
     out: list[EquationErrorFit] = []
     for d, (rel, ctrl, steps) in sorted(best.items(), key=lambda kv: kv[1][0])[:n_best]:
-        row = _plant_by_equation_error(prep, b, _command(ctrl, cols, steps), d, effects,
+        row = _plant_by_equation_error(prep, b, _command(ctrl, cols, steps, ts), d, effects,
                                        lowpass, mask)
         if row is None:
             continue
         # the filter's time constant carried to the model loop's period
-        loop = CascadeController(wv=ctrl.wv, kp=ctrl.kp, kvff=ctrl.kvff, kaff=ctrl.kaff,
-                                 kpi=ctrl.kpi,
+        loop = CascadeController(wv=ctrl.wv, kp=ctrl.kp, ki=ctrl.ki, kvff=ctrl.kvff,
+                                 kaff=ctrl.kaff, kpi=ctrl.kpi,
                                  vel_pole=steps * ts / (steps * ts + inp.loop_ts))
         out.append(EquationErrorFit(GreyBox(loop, row, effects), rel, d, steps))
     return out
