@@ -48,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
                                                    "those (default: 1-7)")
     ap.add_argument("--kinds", default=",".join(S.KINDS),
                     help=f"comma-separated kinds among {','.join(S.KINDS)} (default: all)")
+    ap.add_argument("--cases", default=None, metavar="KIND/SEED,...",
+                    help="only these cases, e.g. 'thermal/18,backlash/2' (instead of --seeds "
+                         "and --kinds)")
     ap.add_argument("--duration", type=float, default=None,
                     help="run length, s (default: drawn per case in 8..16 s)")
     ap.add_argument("--keep", metavar="DIR", default=None,
@@ -57,7 +60,15 @@ def main(argv: list[str] | None = None) -> int:
     unknown = set(kinds) - set(S.KINDS)
     if unknown:
         ap.error(f"--kinds: unknown {','.join(sorted(unknown))}; expected {','.join(S.KINDS)}")
-    seeds = _seeds(args.seeds)
+    pairs = [(seed, kind) for seed in _seeds(args.seeds) for kind in kinds]
+    if args.cases:
+        pairs = []
+        for item in args.cases.split(","):
+            kind, _, seed = item.strip().partition("/")
+            if kind not in S.KINDS or not seed.isdigit():
+                ap.error(f"--cases: {item!r}: expected KIND/SEED with KIND among "
+                         f"{','.join(S.KINDS)}")
+            pairs.append((int(seed), kind))
     tmp = None
     if args.keep:
         os.makedirs(args.keep, exist_ok=True)
@@ -69,14 +80,13 @@ def main(argv: list[str] | None = None) -> int:
     outcomes = []
     t_all = time.perf_counter()
     try:
-        for seed in seeds:
-            for kind in kinds:
-                t0 = time.perf_counter()
-                case = S.draw_case(kind, seed, duration=args.duration)
-                t_sim = time.perf_counter() - t0
-                outcome = C.diagnose_case(case, workdir)
-                outcomes.append(outcome)
-                print(f"{C.format_row(outcome)}   [sim {t_sim:.1f}s]", flush=True)
+        for seed, kind in pairs:
+            t0 = time.perf_counter()
+            case = S.draw_case(kind, seed, duration=args.duration)
+            t_sim = time.perf_counter() - t0
+            outcome = C.diagnose_case(case, workdir)
+            outcomes.append(outcome)
+            print(f"{C.format_row(outcome)}   [sim {t_sim:.1f}s]", flush=True)
     finally:
         if tmp is not None:
             tmp.cleanup()
