@@ -84,3 +84,33 @@ def test_a_prefilter_out_of_range_is_refused() -> None:
     x = np.linspace(0.0, 1.0, 200)
     with pytest.raises(ValueError, match="prefilter_hz=600"):
         fit_arx_controller(x, np.ones(200), x, x, 1e-3, np.arange(200) % 2, prefilter_hz=600.0)
+
+
+@pytest.mark.parametrize("seed", [111, 112])
+def test_a_law_with_an_exact_integrator_is_the_same_law_in_positional_form(seed: int,
+                                                                            tmp_path) -> None:
+    """A law fitted with an exact integrator (its recursion summing to 1) and run in
+    positional form (a clamped integral) is the velocity form's law as long as nothing
+    clips: the two free runs agree to a small share of the noise floor."""
+    from dataclasses import replace
+
+    from fricbench.sysid.diagnose.controllers import ArxController
+
+    case, prep = _case("pid", seed, tmp_path)
+    inp = prep.inputs
+    law = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
+                             integrator=True)
+    assert law.has_integrator and float(np.sum(law.a)) == pytest.approx(1.0, abs=1e-12)
+    p = _true_plant(case)
+    # a limit never reached: the positional form runs, the clamp never acts
+    p[CL.I_IMAX] = 1e6 * float(np.max(np.abs(prep.u)))
+    ys = [simulate_position(GreyBox(lw, p, effects=("coulomb_friction",)), prep)[0]
+          for lw in (law, replace(law, clamped=True))]
+    assert np.all(np.isfinite(ys[1]))
+    # (floating-point order differs: a stop of the stick-slip motion may move by a sample)
+    assert float(np.sqrt(np.mean((ys[0] - ys[1]) ** 2))) < 0.05 * case.floor
+    with pytest.raises(ValueError, match="exact integrator"):
+        ArxController(a=np.array([0.9]), b=law.b, c=law.c, lead=law.lead, clamped=True)
+    with pytest.raises(ValueError, match="integrator=True"):
+        fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds, max_na=0,
+                           integrator=True)

@@ -298,12 +298,17 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     if prep.u is None:
         raise ValueError("fit_law: the run has no effort column")
     nyquist = 0.5 / prep.ts
+    # a drive that clips either recurses on its clipped command (velocity form) or holds its
+    # integral (positional form, clamped): its unclipped samples cannot tell, its motion can
+    forms = (False, True) if prep.saturation is not None else (False,)
     laws = []
     for frac in LAW_PREFILTERS:
-        try:
-            laws.append(_law_through(prep, None if frac is None else frac * nyquist))
-        except (ValueError, np.linalg.LinAlgError):
-            continue
+        for clamped in forms:
+            try:
+                laws.append(_law_through(prep, None if frac is None else frac * nyquist,
+                                         clamped=clamped))
+            except (ValueError, np.linalg.LinAlgError):
+                continue
     if len(laws) == 1:
         return laws[0]
     idim = idim if idim is not None else InverseDynamics(prep, prep.u)
@@ -333,7 +338,7 @@ def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
     f = like.prefilter_hz
     if f is not None and not f < 0.5 / prep.ts:
         f = None
-    return _law_through(prep, f)
+    return _law_through(prep, f, clamped=like.clamped)
 
 
 def law_relerr_floor(prep: Prepared) -> float:
@@ -343,13 +348,16 @@ def law_relerr_floor(prep: Prepared) -> float:
     return _law_through(prep, None).relerr_pct
 
 
-def _law_through(prep: Prepared, prefilter_hz: float | None) -> ArxController:
-    """The run's law fitted through ``prefilter_hz`` (None: unfiltered), clipped samples out."""
+def _law_through(prep: Prepared, prefilter_hz: float | None, *, clamped: bool = False
+                 ) -> ArxController:
+    """The run's law fitted through ``prefilter_hz`` (None: unfiltered), clipped samples out;
+    ``clamped``: with an exact integrator, run in positional form when the drive clips."""
     assert prep.u is not None
     inp = prep.inputs
     exclude = prep.saturation.mask if prep.saturation is not None else None
-    return fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
-                              exclude=exclude, prefilter_hz=prefilter_hz)
+    law = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
+                             exclude=exclude, prefilter_hz=prefilter_hz, integrator=clamped)
+    return replace(law, clamped=True) if clamped else law
 
 
 def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bounds, float]:

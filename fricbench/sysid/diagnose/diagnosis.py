@@ -429,6 +429,15 @@ class _ModeFit:
         return float(np.sum(e**2)) if np.all(np.isfinite(e)) else float("inf")
 
 
+def _clamped_words(ctrl: ArxController | CascadeController) -> str:
+    """What the report adds to a law that holds its integral while the drive clips."""
+    if isinstance(ctrl, ArxController) and ctrl.clamped:
+        return ("; run with its integral held while the drive clips (clamping anti-windup), "
+                "which reproduced the motion better than a law recursing on its clipped "
+                "command")
+    return ""
+
+
 def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDynamics,
                 bounds: Bounds, ctrl_err: float, y_lin: np.ndarray,
                 injected: tuple[np.ndarray | None, float | None, bool], force_unit: str,
@@ -437,7 +446,8 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
     """The search with the law identified from the effort and the inverse dynamics."""
     w, share, used = injected
     notes = [f"controller law identified from the effort with {ctrl_err:.2f} % relative error"]
-    laws = {"train": f"identified on the training run ({ctrl_err:.2f} % relative error)"}
+    laws = {"train": f"identified on the training run ({ctrl_err:.2f} % relative error)"
+                     f"{_clamped_words(linear.controller)}"}
     if used and share is not None:
         notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
                      "controller law; it is fed to the simulations as an injected input")
@@ -835,7 +845,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
             assert isinstance(linear.controller, ArxController)
             law_v = fit_law_like(prep_v, linear.controller)
             laws["validation"] = ("identified on the validation run "
-                                  f"({law_v.relerr_pct:.2f} % relative error)")
+                                  f"({law_v.relerr_pct:.2f} % relative error)"
+                                  f"{_clamped_words(law_v)}")
         else:
             laws["validation"] = f"the training run's ({laws['train']})"
         val_eval = _evaluate(linear, final, prep_v, law_v)

@@ -123,16 +123,18 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
     laws: list[PositionalLaw | None] = []
     for m in models:
         # a parametric loop whose drive clips runs in positional form (its integral held
-        # while clipped); an identified law recurses on the clipped effort it was fitted to
-        pos = (isinstance(m.controller, CascadeController)
+        # while clipped); an identified law recurses on the clipped effort it was fitted to,
+        # unless it was chosen clamped
+        pos = ((isinstance(m.controller, CascadeController)
+                or (isinstance(m.controller, ArxController) and m.controller.clamped))
                and bool(np.isfinite(m.plant[CL.I_IMAX])))
         # rows of a finite-difference Jacobian often share the controller: convert it once
         key = ((m.controller, pos) if isinstance(m.controller, CascadeController)
-               else id(m.controller))
+               else (id(m.controller), pos))
         if key not in cache:
             if pos:
-                law = m.controller.positional(inp)  # type: ignore[union-attr]
-                cache[key] = ((law.a, law.c, law.r, law.q_init, law.y_init), law)
+                plaw = m.controller.positional(inp)
+                cache[key] = ((plaw.a, plaw.c, plaw.r, plaw.q_init, plaw.y_init), plaw)
             else:
                 cache[key] = (m.controller.arx(inp), None)
         parts.append(cache[key][0])
