@@ -114,3 +114,52 @@ def test_a_law_with_an_exact_integrator_is_the_same_law_in_positional_form(seed:
     with pytest.raises(ValueError, match="integrator=True"):
         fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds, max_na=0,
                            integrator=True)
+
+
+def _effort_case(seed: int, delay: int, tmp_path) -> tuple[S.Case, object]:
+    import argparse
+
+    from fricbench.sysid.diagnose.command import _configure  # the command line's own reading
+
+    case = S.draw_case("control", seed, delay=delay, effort="N", log_every=1, rounded=False,
+                       unit="m", time_column=True, sep=",", header="names")
+    path = os.path.join(tmp_path, f"delay-{seed}-{delay}.csv")
+    S.write_csv(case, path)
+    ns = _configure(argparse.ArgumentParser()).parse_args(S.cli_args(case, path))
+    run = load_run(path, time=ns.time, reference=ns.reference, position=ns.position,
+                   effort=ns.effort, position_unit="m", effort_required=True)
+    return case, prepare(run)
+
+
+@pytest.mark.parametrize("seed", [300, 301, 302, 303])
+def test_no_command_delay_is_given_to_a_drive_without_one(seed: int, tmp_path) -> None:
+    """The effort's loop gets a command delay only when its free run clearly needs one: drives
+    without a delay (PID and cascade, drawn) keep none."""
+    from fricbench.sysid.diagnose.baselines import fit_linear_with_effort
+
+    _, prep = _effort_case(seed, 0, tmp_path)
+    model, idim, _, _ = fit_linear_with_effort(prep)
+    assert int(model.plant[CL.I_DELAY]) == 0 and idim.delay == 0
+
+
+def test_a_drives_command_delay_is_found_from_the_motion(tmp_path) -> None:
+    """A clipping PID whose power stage applies the logged command 3 samples later (seed
+    302): the effort's regression and loop take the delay, and the loop with friction leaves
+    less than 0.8 times the squared position error of the same law without it."""
+    from fricbench.sysid.diagnose.baselines import fit_linear_with_effort
+    from fricbench.sysid.diagnose.models import InverseDynamics
+
+    _, prep = _effort_case(302, 3, tmp_path)
+    model, idim, _, _ = fit_linear_with_effort(prep)
+    assert int(model.plant[CL.I_DELAY]) == 3 and idim.delay == 3
+    sse = []
+    for reg in (idim, InverseDynamics(prep, prep.u)):
+        p = reg.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+        p[CL.I_DELAY] = reg.delay
+        p[CL.I_IMAX] = model.plant[CL.I_IMAX]
+        y, _ = simulate_position(GreyBox(model.controller, p, effects=("coulomb_friction",)),
+                                 prep)
+        sse.append(float(np.sum((prep.x - y) ** 2)))
+    assert sse[0] < 0.8 * sse[1], sse
+    with pytest.raises(ValueError, match="delay=-1"):
+        InverseDynamics(prep, prep.u, delay=-1)

@@ -375,7 +375,7 @@ def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
     y_after, _ = simulate_position(final, prep, w)
     eb = ea = sb = sa = None
     if prep.u is not None and isinstance(final.controller, ArxController):
-        idim = InverseDynamics(prep, prep.u)
+        idim = InverseDynamics(prep, prep.u, delay=int(final.plant[CL.I_DELAY]))
         eb, ea = idim.relerr(linear.plant), idim.relerr(final.plant)
         speed = np.abs(idim.v_dec)
         sliding = np.flatnonzero(speed > SLIDING_SHARE * float(np.max(speed, initial=0.0)))
@@ -448,6 +448,11 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
     notes = [f"controller law identified from the effort with {ctrl_err:.2f} % relative error"]
     laws = {"train": f"identified on the training run ({ctrl_err:.2f} % relative error)"
                      f"{_clamped_words(linear.controller)}"}
+    delay = int(linear.plant[CL.I_DELAY])
+    if delay > 0:
+        laws["train"] += (f"; the drive applies its command {delay} loop period"
+                          f"{'s' if delay > 1 else ''} ({1e3 * delay * prep.inputs.loop_ts:.3g}"
+                          " ms) after it is logged, found from the motion")
     if used and share is not None:
         notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
                      "controller law; it is fed to the simulations as an injected input")

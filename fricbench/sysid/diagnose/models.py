@@ -483,10 +483,20 @@ class InverseDynamics:
         Effort (measured, or the controller's virtual effort).
     label : str
         Cache key of this effort.
+    delay : int
+        Samples the effort takes to act (a drive's command delay, the plant's ``I_DELAY``):
+        the effort of sample ``k - delay`` is regressed on the motion of sample ``k``.
     """
 
-    def __init__(self, prep: Prepared, u: np.ndarray, label: str = "u") -> None:
+    def __init__(self, prep: Prepared, u: np.ndarray, label: str = "u", delay: int = 0
+                 ) -> None:
+        if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+            raise ValueError(f"delay={delay!r}: expected an integer number of samples >= 0")
         self.prep = prep
+        self.delay = int(delay)
+        if self.delay > 0:
+            u = np.concatenate([np.full(self.delay, u[0]), u[:-self.delay]])
+            label = f"{label}-delayed-{self.delay}"
         self.label = label
         self.u_dec = prep.dec(("effort", label), u)
         self.a_dec = prep.dec("a", prep.af)

@@ -15,6 +15,7 @@ import numpy as np
 
 from fricbench._atomic import atomic_write_via
 from fricbench.run_events import motion_sign, sign_reversals
+from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.diagnosis import DiagnosisResult
 from fricbench.sysid.diagnose.models import InverseDynamics
 from fricbench.sysid.units import position_unit
@@ -95,7 +96,7 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     xk, xl = pu.coarse_per_si, pu.coarse_display
     effort = None
     if prep.u is not None and result.mode == "effort":
-        idim = InverseDynamics(prep, prep.u)
+        idim = InverseDynamics(prep, prep.u, delay=int(result.final.plant[CL.I_DELAY]))
         effort = (idim.u_dec - idim.predict(result.linear.plant),
                   idim.u_dec - idim.predict(result.final.plant), idim)
     colors = {"before": "tab:red", "after": "tab:blue"}
