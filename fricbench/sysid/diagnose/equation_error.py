@@ -247,11 +247,7 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
         return []
     lhs = decimate_columns(prep.af, prep.decim)[rows]
     plant = decimate_columns(np.column_stack([-prep.vf, -np.sign(prep.vf)]), prep.decim)[rows]
-    # a slow trend of the measured position (a thermal growth the drive's own encoder does not
-    # see) enters the error and its integral: a cubic in time takes it, not the gains
-    tau = (inp.t - inp.t[0]) / max(float(inp.t[-1] - inp.t[0]), ts)
-    fixed = lowpass(np.column_stack([e, cols["s_e"], inp.ar, np.ones_like(e),
-                                     tau, tau ** 2, tau ** 3]))
+    fixed = lowpass(np.column_stack([e, cols["s_e"], inp.ar, np.ones_like(e)]))
     best: dict[int, tuple[float, CascadeController, float]] = {}
     for steps in FILTER_STEPS:
         pole = steps / (steps + 1.0)
@@ -259,14 +255,13 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
         filt = lowpass(np.column_stack([f_vr, _first_order(cols["dx"], pole),
                                         _running_integral(f_vr, ts)]))
         ctrl_cols = np.column_stack([fixed[:, 0], filt[:, 0], -filt[:, 1], fixed[:, 1],
-                                     fixed[:, 2], fixed[:, 3], filt[:, 2], fixed[:, 4:]])
+                                     fixed[:, 2], fixed[:, 3], filt[:, 2]])
         for d in delays:
             d = int(d)
             X = np.hstack([decimate_columns(_shifted(ctrl_cols, d), prep.decim)[rows], plant])
             # wv kp, wv (the sign in its column), wv kpi, the damping and the Coulomb level
             # are not negative
-            nonneg = np.array([True, False, True, True, False, False, False] + [False] * 3
-                              + [True, True])
+            nonneg = np.array([True, False, True, True, False, False, False, True, True])
             coef = solve_ls(X, lhs, nonneg)
             wv = float(coef[2])
             if not (wv > 0.0 and np.all(np.isfinite(coef))):
