@@ -239,7 +239,7 @@ def test_the_effort_error_while_sliding_leaves_out_the_rests() -> None:
     res = diagnose(validate_arrays(t, xr, x, u))
     effort = res.train.effort()
     assert effort is not None
-    idim = InverseDynamics(res.prep, res.prep.u)
+    idim = InverseDynamics(res.prep, res.prep.u, delay=int(res.linear.plant[CL.I_DELAY]))
     speed = np.abs(idim.v_dec)
     rows = np.flatnonzero(speed > 0.05 * speed.max())
     assert 20 <= rows.size < speed.size
@@ -249,3 +249,14 @@ def test_the_effort_error_while_sliding_leaves_out_the_rests() -> None:
     assert effort["relerr_after_pct"] == idim.relerr(final.plant)
     assert effort["relerr_sliding_after_pct"] != effort["relerr_after_pct"]
     assert "relerr_sliding_after_pct" in res.to_dict()["effort"]
+
+
+@pytest.mark.parametrize("seed", [2, 4])
+def test_a_loop_that_starts_moving_gets_no_command_delay(seed: int) -> None:
+    """A PD loop (no delay in it) whose reference starts at speed: the free run's start-up
+    transient, from a state estimated at the record's edge, is no evidence of a delay."""
+    from fricbench.sysid.diagnose.baselines import fit_linear_with_effort
+
+    t, xr, x, u = _pd_loop(np.random.default_rng(seed), coulomb=0.3, noise=2e-7)
+    model, idim, _, _ = fit_linear_with_effort(prepare(validate_arrays(t, xr, x, u)))
+    assert int(model.plant[CL.I_DELAY]) == 0 and idim.delay == 0
