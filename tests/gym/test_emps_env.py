@@ -21,7 +21,7 @@ import fricbench  # noqa: F401  (registers the envs)
 from fricbench.cli import main as cli_main
 from fricbench.gym import env_ids, get_spec
 
-EMPS = "/work/shared/data/emps"
+EMPS = os.path.join(os.environ["FRICBENCH_SHARED"], "data", "emps")
 ENV_ID = "fricbench/EMPS-v0"
 DIAGNOSIS_RMS_UM = 1.094  # fricbench diagnose on emps_train.csv (the spec's head)
 LINEAR_RMS_UM = 7.049

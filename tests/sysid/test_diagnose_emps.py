@@ -1,4 +1,4 @@
-"""The EMPS targets of issue 5 on the measured data of ``/work/shared/data/emps``.
+"""The EMPS targets of issue 5 on the measured data of ``$FRICBENCH_SHARED/data/emps``.
 
 Published (Janot, Gautier & Brunot 2019): Coulomb + viscous + offset 4.08 % on the training run
 and 5.98 % cross-tested on the pulse run; asymmetric friction 3.11 % on the training run.
@@ -13,7 +13,7 @@ import pytest
 from fricbench.sysid.diagnose import diagnose
 from fricbench.sysid.io import load_run
 
-ROOT = "/work/shared/data/emps"
+ROOT = os.path.join(os.environ["FRICBENCH_SHARED"], "data", "emps")
 COLUMNS = dict(time="t_s", reference="q_ref_m", position="q_m", effort="force_N",
                effort_required=True)
 

@@ -210,7 +210,7 @@ def test_the_step_run_of_the_dc_motor_is_diagnosed_honestly() -> None:
 
     from fricbench.sysid.io import load_run
 
-    root = "/work/shared/data/keiel_dcmotor"
+    root = os.path.join(os.environ["FRICBENCH_SHARED"], "data", "keiel_dcmotor")
     if not os.path.isdir(root):
         pytest.fail(f"{root} is missing: the DC-motor logs are part of the shared data set")
     kw = dict(time=None, reference=0, position=1, effort=3, sample_time=0.002,

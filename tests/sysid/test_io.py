@@ -184,7 +184,7 @@ def test_the_input_file_is_never_modified(tmp_path):
 
 
 def test_emps_files_load_with_their_names():
-    root = "/work/shared/data/emps"
+    root = os.path.join(os.environ["FRICBENCH_SHARED"], "data", "emps")
     if not os.path.isdir(root):
         pytest.fail(f"{root} is missing: the EMPS data are part of the shared data set")
     run = load_run(os.path.join(root, "emps_train.csv"), time="t_s", reference="q_ref_m",

@@ -22,7 +22,7 @@ from fricbench.sysid.diagnose.open_loop import (
     periodic_statistics,
 )
 
-EMPS = "/work/shared/data/emps"
+EMPS = os.path.join(os.environ["FRICBENCH_SHARED"], "data", "emps")
 TS = 1e-3
 
 
