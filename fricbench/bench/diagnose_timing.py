@@ -4,8 +4,11 @@
 simulates a run of the default axis (Stribeck friction, 0.1 um noise, 20 nm encoder) with a
 cogging ripple on a seeded random mixture of moves, reversals and sine blocks, diagnoses it
 and prints the number of samples, the seconds and the samples per second, with the load
-average of the machine (the time depends on what else runs). A short run is diagnosed first
-so that the numba kernels are compiled (or loaded from their cache) before the timing.
+average of the machine (the time depends on what else runs). The reference, measured in the
+same process right after: one free run of the diagnosis' own linear model on the same run
+(median of 5), the unit the search is made of; the ratio of the two is what to compare
+between machines. A short run is diagnosed first so that the numba kernels are compiled (or
+loaded from their cache) before the timing.
 """
 
 from __future__ import annotations
@@ -21,7 +24,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from fricbench.sysid.io import RunData
 
-__all__ = ["BenchmarkResult", "benchmark_run", "time_diagnose", "main"]
+__all__ = ["BenchmarkResult", "REFERENCE_REPEATS", "benchmark_run", "time_diagnose", "main"]
+
+REFERENCE_REPEATS = 5
+"""Free runs timed for the reference (their median is kept)."""
 
 
 @dataclass(frozen=True)
@@ -42,6 +48,9 @@ class BenchmarkResult:
         1, 5 and 15 minute load averages after the run.
     cpus : int
         Logical CPUs of the machine.
+    reference_seconds : float
+        Wall time of one free run of the diagnosis' linear model on the same run (median of
+        :data:`REFERENCE_REPEATS`), s.
     """
 
     samples: int
@@ -50,6 +59,12 @@ class BenchmarkResult:
     effects: tuple[str, ...]
     load_average: tuple[float, float, float]
     cpus: int
+    reference_seconds: float
+
+    @property
+    def ratio(self) -> float:
+        """Diagnosis time in free runs of its linear model."""
+        return self.seconds / max(self.reference_seconds, 1e-12)
 
     @property
     def samples_per_s(self) -> float:
@@ -77,7 +92,10 @@ def benchmark_run(samples: int = 40_000, *, effort: bool = False, seed: int = 0)
 def time_diagnose(samples: int = 40_000, *, effort: bool = False, seed: int = 0,
                   warm_up: bool = True) -> BenchmarkResult:
     """Diagnose :func:`benchmark_run` and time it (wall clock)."""
+    import numpy as np
+
     from fricbench.sysid.diagnose.diagnosis import diagnose
+    from fricbench.sysid.diagnose.models import simulate_position
 
     if warm_up:
         diagnose(benchmark_run(2000, effort=effort, seed=seed + 1))
@@ -85,8 +103,14 @@ def time_diagnose(samples: int = 40_000, *, effort: bool = False, seed: int = 0,
     t0 = time.perf_counter()
     result = diagnose(run)
     seconds = time.perf_counter() - t0
+    load = os.getloadavg()
+    ref = []
+    for _ in range(REFERENCE_REPEATS):
+        t1 = time.perf_counter()
+        simulate_position(result.linear, result.prep)
+        ref.append(time.perf_counter() - t1)
     return BenchmarkResult(run.n_samples, seconds, result.mode, tuple(result.effects),
-                           os.getloadavg(), os.cpu_count() or 1)
+                           load, os.cpu_count() or 1, float(np.median(ref)))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -110,6 +134,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"effects found: {', '.join(r.effects) or 'none'}")
     print(f"seconds: {r.seconds:.2f}")
     print(f"samples/s: {r.samples_per_s:.0f}")
+    print(f"reference: one free run of the linear model on the same run: "
+          f"{1e3 * r.reference_seconds:.2f} ms (median of {REFERENCE_REPEATS})")
+    print(f"ratio: diagnose / reference = {r.ratio:.0f}")
     la = r.load_average
     print(f"load average: {la[0]:.2f} {la[1]:.2f} {la[2]:.2f} on {r.cpus} cpus")
     return 0

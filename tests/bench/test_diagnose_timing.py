@@ -17,7 +17,8 @@ def test_benchmark_run_has_the_requested_length() -> None:
 def test_benchmark_prints_samples_seconds_and_throughput(capsys: pytest.CaptureFixture) -> None:
     assert main(["--samples", "2000", "--effort", "--no-warm-up"]) == 0
     out = capsys.readouterr().out
-    for key in ("samples: 2000", "seconds:", "samples/s:", "load average:"):
+    for key in ("samples: 2000", "seconds:", "samples/s:", "load average:", "reference:",
+                "ratio: diagnose / reference = "):
         assert key in out
 
 
