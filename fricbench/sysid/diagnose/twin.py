@@ -347,6 +347,11 @@ def twin_spec(result: Any, env_id: str, *, effort_gain: float | None = None,
         f"Controller: {result.laws.get('train', '')}"
         + (" (law = 'linear': its look-ahead reference taps folded into gains on x_r, v_r, a_r)"
            if isinstance(ctrl, ArxController) else " (the env's cascade)") + ".",
+        *(["The diagnosis ran this law in positional form, its integral clamped while the "
+           "drive clips; the env's linear law runs its velocity form, which recurses on the "
+           "clipped command: the same law until the drive clips, and while it clips both keep "
+           "the integral from winding up, by different rules."]
+          if isinstance(ctrl, ArxController) and ctrl.clamped else []),
         f"Drive limit controller.i_max: {limit_note}.",
         f"Free-run position error of the diagnosis on its run: rms {pos['rms_after']:.4g} m "
         f"(linear model {pos['rms_before']:.4g} m).",
