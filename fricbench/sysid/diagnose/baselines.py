@@ -317,14 +317,8 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
         p[CL.I_IMAX] = prep.saturation.level
     models = [GreyBox(law, p, effects=("coulomb_friction",)) for law in laws]
     ys, _, status = simulate_models(models, prep)
-    # judged after the first tenth of the run: the free run starts from a state estimated at
-    # the record's edge, and a one-sample shift of the effort can absorb that transient (a PD
-    # loop started moving, no delay in it: 0.71 x the error of none over the whole run, 1.3 x
-    # after its first tenth); a drive's delay acts over the whole run
-    k0 = prep.x.shape[0] // 10
-    sse = np.array([float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
-                    if s == 0 and np.all(np.isfinite(y)) else np.inf
-                    for y, s in zip(ys, status, strict=True)])
+    sse = np.array([float(np.sum((prep.x - y) ** 2)) if s == 0 and np.all(np.isfinite(y))
+                    else np.inf for y, s in zip(ys, status, strict=True)])
     if not np.any(np.isfinite(sse)):
         return laws[0]
     return laws[int(np.argmin(sse))]
