@@ -46,10 +46,12 @@ def test_emps_effort_error_beats_the_published_models(emps_report):
 
 
 def test_emps_position_prediction_improves(emps_report):
+    # (about 0.15 x on both runs; a law chosen through the wrong prefilter left 0.5 x on the
+    # pulse run, 150.5 -> 74.75 um, which the former bound of 0.5 x let through)
     pos = emps_report["position"]
-    assert pos["rms_after"] < 0.5 * pos["rms_before"]
+    assert pos["rms_after"] < 0.25 * pos["rms_before"]
     val = emps_report["validation"]["position"]
-    assert val["rms_after"] < 0.5 * val["rms_before"]
+    assert val["rms_after"] < 0.25 * val["rms_before"]
     # the pulses are in the effort of the test run, not produced by the controller law
     assert emps_report["validation"]["injected_effort_used"] is True
 
