@@ -349,8 +349,6 @@ _KNOWN_MISSES: dict[tuple[str, int], str] = {
                      "3 % of the samples and logs no effort); thermal_drift's best fit, the "
                      "motion-driven law, stands in for it with its time constant on the lower "
                      "bound and is rejected",
-    ("cogging", 28): "names position_dependent_friction (absent; judged on the effort) beside "
-                     "cogging and asymmetric friction (rms 43.8 -> 2.05 um, floor 0.0089 um)",
 }
 
 
