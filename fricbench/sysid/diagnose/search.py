@@ -112,7 +112,7 @@ class SearchSettings:
     min_position_share_other: float = 1.5
     floor_factor: float = 1.25
     max_steps: int = 8
-    n_confirm: int = 2
+    n_confirm: int = 3
     candidates: tuple[str, ...] = field(default_factory=effect_names)
 
     def min_size(self, effect: str) -> float:
