@@ -1,4 +1,12 @@
-"""Backlash: lost motion between the motor and the measured position (a play operator)."""
+"""Backlash: lost motion between the motor and the measured position.
+
+Two models of the gap: a play operator on the output (the table stops the instant the motor
+leaves it), or two bodies (``Effects.backlash_load_fraction``, the load's share of the mass
+and damping, with the friction): the load coasts until its friction stops it while the motor
+crosses the gap alone, so the loop meets a lighter, frictionless axis at each reversal. The
+load share is not a free parameter (the fit is not smooth in it, and it does not tend to the
+play operator as it vanishes): the start is the best of the play operator and a few shares.
+"""
 
 from __future__ import annotations
 
@@ -18,17 +26,24 @@ if TYPE_CHECKING:
 
 
 class Backlash(Effect):
-    """``y = play_beta(x)``: the table follows the motor once the lost motion is taken up."""
+    """``y = play_beta(x)``: the table follows the motor once the lost motion is taken up; or
+    two bodies across the gap (a load share of the mass held from the start)."""
 
     name = "backlash"
+    # fitted as an output effect (judged on the free-run position from a grid of starts) in
+    # both forms, though two bodies also change the loop's mechanics
     kind = "output"
     needs_reversals = True
-    summary = "lost motion between the motor and the measured position (play operator)"
+    summary = ("lost motion between the motor and the measured position (play operator, or "
+               "two bodies across the gap)")
     parameters = (CL.I_BL,)
 
     #: largest gap: 1 mm on a linear axis, 50 mrad (about 3 deg) on a rotary one (a gear train)
     LARGEST = 1e-3
     LARGEST_ROTARY = 0.05
+    #: the load's shares of the mass tried beside the play operator (0): a table lighter than
+    #: the motor and screw, about as heavy, and heavier
+    LOAD_SHARES = (0.0, 0.25, 0.5, 0.75)
 
     @classmethod
     def _largest(cls, b: Bounds) -> float:
@@ -48,13 +63,16 @@ class Backlash(Effect):
 
     def output_start(self, model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
                      y: np.ndarray, mask: np.ndarray, simulate: SimulateFn) -> GreyBox:
-        """The best of a few sizes on ``mask`` (the play is not smooth at zero)."""
+        """The best of a few sizes and load shares on ``mask`` (the play is not smooth at
+        zero, and the share is held where it starts)."""
         sizes = list(np.geomspace(max(b.noise, 1e-8), self._largest(b), 8))
         models = []
-        for s in sizes:
-            q = model.plant.copy()
-            q[CL.I_BL] = s
-            models.append(model.copy(plant=q))
+        for share in self.LOAD_SHARES:
+            for s in sizes:
+                q = model.plant.copy()
+                q[CL.I_BL] = s
+                q[CL.I_BL_LOAD] = share
+                models.append(model.copy(plant=q))
         ys, _, _ = simulate(models, prep, w)
         sse = []
         for yy in ys:
@@ -64,4 +82,8 @@ class Backlash(Effect):
         return models[int(np.argmin(sse))]
 
     def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
-        return {"backlash_m": float(p[CL.I_BL])}
+        out = {"backlash_m": float(p[CL.I_BL])}
+        if p[CL.I_BL_LOAD] > 0.0:
+            # two bodies across the gap: the load's share of the mass (and of the damping)
+            out["load_fraction"] = float(p[CL.I_BL_LOAD])
+        return out
