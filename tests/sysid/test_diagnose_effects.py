@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -169,3 +170,13 @@ def test_an_output_effect_found_negligible_with_an_effort_is_not_fitted_again() 
                   if ln.split()[:1] == [name] and "held-out position error" in ln]
         # fitted once (or more) before it was found negligible, never after
         assert fitted and max(fitted) < first_skip
+
+
+@pytest.mark.parametrize(("duration", "floor"), [(8.0, 0.5), (600.0, 6.0)])
+def test_a_thermal_time_constant_is_never_below_half_a_second(duration: float,
+                                                             floor: float) -> None:
+    b = replace(BOUNDS, duration=duration)
+    par = get_effect("thermal_drift").bounds(CL.I_THT, duration / 10.0, b)
+    # half a second on a short run; a hundredth of the run on a long one
+    assert par.lo == pytest.approx(floor)
+    assert par.hi == pytest.approx(20.0 * duration)

@@ -555,3 +555,21 @@ def test_a_backlash_between_two_bodies_is_found(seed: int, tmp_path: object) -> 
     # the JSON holds SI units (m here: both runs are linear)
     assert step["parameters"]["backlash_m"] == pytest.approx(case.plant.backlash, rel=0.3)
     assert step["parameters"].get("load_fraction", 0.0) > 0.0
+
+
+def test_friction_varying_along_the_stroke_is_not_taken_for_a_drift(tmp_path: object) -> None:
+    """The sweep's posdep/13: a PID with a 2-period delay, friction varying along the stroke,
+    no thermal growth. After Coulomb and position-dependent friction, 16 um is left at 300 x
+    the floor, and the motion-heated drift's best fit (a time constant of 0.33 s, a term
+    that follows the speed) was named. A thermal time constant under half a second is not heat
+    (:data:`~fricbench.sysid.diagnose.effects.thermal.MIN_TAU_S`): the fit ends on that bound
+    and is rejected; the friction is named and the error still cut 10 x."""
+    case = S.draw_case("posdep", 13)
+    assert case.plant.thermal_growth == 0.0
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert "thermal_drift" not in report["effects"]
+    assert any("thermal_drift" in w and "lower bound" in w for w in report["warnings"])
+
