@@ -129,6 +129,25 @@ def test_a_period_at_a_multiple_of_the_quantum_is_the_sensor(multiple: int) -> N
     assert "stroke" in str(artefact(_cogging_model(1.5 * prep.stroke), "cogging", prep, b))
 
 
+@pytest.mark.parametrize("ratio", [0.96, 1.0, 1.04])
+def test_a_second_periodic_term_at_the_period_of_the_first_is_the_same_term(ratio: float
+                                                                           ) -> None:
+    t = np.arange(4000) * 1e-3
+    run = validate_arrays(t, 0.05 * np.sin(t), 0.05 * np.sin(t - 0.01))
+    prep = prepare(run)
+    b = Bounds(force=1.0, stroke=prep.stroke, v_max=0.05, duration=4.0, ts=1e-3, noise=1e-7)
+    cog = 0.2 * prep.stroke
+    m = _cogging_model(cog)
+    p = m.plant.copy()
+    p[CL.I_PDG], p[CL.I_PDA], p[CL.I_PDP], p[CL.I_XC] = 1.0, 0.2, ratio * cog, prep.center
+    m = m.copy(plant=p, effects=("coulomb_friction", "cogging", "position_dependent_friction"))
+    why = artefact(m, "position_dependent_friction", prep, b)
+    assert why is not None and "that of cogging" in why
+    # a friction varying at another period is a second effect
+    p[CL.I_PDP] = 1.5 * cog
+    assert artefact(m.copy(plant=p), "position_dependent_friction", prep, b) is None
+
+
 # -- residual description -------------------------------------------------------------------------
 def test_describe_names_the_structure_of_a_residual() -> None:
     rng = np.random.default_rng(4)

@@ -573,3 +573,18 @@ def test_friction_varying_along_the_stroke_is_not_taken_for_a_drift(tmp_path: ob
     assert "thermal_drift" not in report["effects"]
     assert any("thermal_drift" in w and "lower bound" in w for w in report["warnings"])
 
+
+def test_a_cogging_is_not_named_twice_as_a_friction_along_the_stroke(tmp_path: object) -> None:
+    """The sweep's cogging/25: a cascade logged at 100 Hz, cogging and no friction varying
+    along the stroke. Once Coulomb friction and cogging are in, a position-dependent friction
+    whose variation has the cogging's period (within 4 %) cut the held-out error to x0.68 and
+    was named; it is the same periodic term twice and is now rejected as an artefact."""
+    case = S.draw_case("cogging", 25)
+    assert case.plant.friction_ramp == 0.0 and case.plant.friction_wave == 0.0
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert "position_dependent_friction" not in report["effects"]
+    assert any("that of cogging" in w for w in report["warnings"])
+

@@ -698,6 +698,9 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
       sensor quantum (the staircase of a coarse sensor leaves a residual with that period);
     * the spatial period of a periodic term (:attr:`Effect.periodic`) longer than the stroke
       (a level change, not a period);
+    * a spatial period within :data:`QUANTUM_PERIOD_TOLERANCE` of another effect's in the model
+      (a friction varying along the stroke at the cogging's period is what a cogging that is
+      not a pure sine leaves, not a second effect);
     * a shape parameter (a period, a time constant, a Stribeck velocity) that ended on a
       bound of its physical range (the optimum lies outside it: the effect stands in for
       something else). Sizes are not checked: their bounds are a multiple of the run's force
@@ -718,6 +721,15 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
         if effect.periodic and per > prep.stroke:
             return (f"{name}: its period {per:.4g} is longer than the stroke {prep.stroke:.4g}: "
                     "a level change, not a period")
+        for other in model.effects:
+            o = get_effect(other)
+            if other == name or o.period_parameter is None:
+                continue
+            per_o = float(p[o.period_parameter])
+            if per_o > 0.0 and abs(per / per_o - 1.0) <= QUANTUM_PERIOD_TOLERANCE:
+                return (f"{name}: its period {per:.4g} is that of {other} ({per_o:.4g}): the "
+                        f"same periodic term twice (the residual of {other}'s shape), not a "
+                        "second effect")
     for i in effect.free(model.effects):
         if i not in effect.shape_parameters:
             continue
