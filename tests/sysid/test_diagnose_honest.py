@@ -18,6 +18,7 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose import diagnose
 from fricbench.sysid.diagnose.command import _non_finite
 from fricbench.sysid.diagnose.controllers import ArxController
+from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.models import GreyBox
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import prepare
@@ -146,6 +147,22 @@ def test_a_second_periodic_term_at_the_period_of_the_first_is_the_same_term(rati
     # a friction varying at another period is a second effect
     p[CL.I_PDP] = 1.5 * cog
     assert artefact(m.copy(plant=p), "position_dependent_friction", prep, b) is None
+
+
+@pytest.mark.parametrize(("inside", "on_bound"), [(1.5e-4, True), (5e-4, True), (1e-2, False)])
+def test_a_shape_parameter_pressed_against_its_bound_is_on_it(inside: float,
+                                                               on_bound: bool) -> None:
+    # the trust-region solver stops a little inside a bound it presses against (posdep/28 of
+    # the second simulator: a damping ratio 1.5e-4 inside its bound, named at 1e-4)
+    t = np.arange(4000) * 1e-3
+    prep = prepare(validate_arrays(t, 0.05 * np.sin(t), 0.05 * np.sin(t - 0.01)))
+    b = Bounds(force=1.0, stroke=prep.stroke, v_max=0.05, duration=4.0, ts=1e-3, noise=1e-7)
+    m = _cogging_model(0.2 * prep.stroke)
+    p = m.plant.copy()
+    hi = get_effect("compliance").bounds(CL.I_CZ, 0.05, b).hi
+    p[CL.I_CR], p[CL.I_CF], p[CL.I_CZ] = 0.5, 20.0, hi * (1.0 - inside)
+    why = artefact(m.copy(plant=p, effects=("compliance",)), "compliance", prep, b)
+    assert (why is not None and "upper bound" in why) == on_bound
 
 
 # -- residual description -------------------------------------------------------------------------
