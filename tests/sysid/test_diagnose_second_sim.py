@@ -588,3 +588,18 @@ def test_a_cogging_is_not_named_twice_as_a_friction_along_the_stroke(tmp_path: o
     assert "position_dependent_friction" not in report["effects"]
     assert any("that of cogging" in w for w in report["warnings"])
 
+
+def test_an_effect_judged_redundant_is_kept_when_the_search_without_it_ends_worse(
+        tmp_path: object) -> None:
+    """The sweep's thermal/26: a clipping cascade on the position alone, with a drift heated
+    by motion. After Coulomb friction and the drift (1.33 um), the redundancy test refitted
+    the model without the drift from the final loop and lost only x1.20, so the drift was
+    dropped; the search run again without it ended at 7.48 um. The drop is undone when the
+    search without the effect ends worse than with it by more than its own required gain."""
+    case = S.draw_case("thermal", 26)
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert "thermal_drift" in report["effects"]
+    assert not any(w.startswith("dropped thermal_drift") for w in report["warnings"])
