@@ -1507,7 +1507,8 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
             if redundant is None:
                 break
             name = redundant[0]
-            before = (steps, reason, floor, settings, list(warnings))
+            kept_steps, kept_reason, kept_floor = steps, reason, floor
+            kept_warnings = list(warnings)
             need = settings.required(_n_params(name, steps[-1].model.effects), name, "position")
             warnings.append(f"dropped {name}: once the later effects are in, it no longer "
                             "cuts the held-out position error by what adding it requires")
@@ -1518,10 +1519,10 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                                           jac, warnings, alt_loops,
                                                           alt_starts=alt_starts,
                                                           effort_check=effort_check)
-            claims = {e for e in before[0][-1].model.effects
-                      if e != name and not get_effect(e).friction}
+            kept = kept_steps[-1]
+            claims = {e for e in kept.model.effects if e != name and not get_effect(e).friction}
             if (claims <= set(steps[-1].model.effects)
-                    and steps[-1].position_rms > math.exp(need) * before[0][-1].position_rms):
+                    and steps[-1].position_rms > math.exp(need) * kept.position_rms):
                 # the test refitted the model without it from the final loop; the search
                 # run again from the linear loop may not reach that fit (the second
                 # simulator's thermal/26: a drift judged redundant at x1.20, and the search
@@ -1530,8 +1531,8 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                 # search without it did not find again (control/28: a false cogging)
                 log(f"  + {name} kept: without it the search ends at "
                     f"{_length(prep, steps[-1].position_rms)} rms, against "
-                    f"{_length(prep, before[0][-1].position_rms)} with it")
-                steps, reason, floor, settings, kept_warnings = before
+                    f"{_length(prep, kept.position_rms)} with it")
+                steps, reason, floor = kept_steps, kept_reason, kept_floor
                 warnings[:] = kept_warnings
                 break
     # a repeated search rejects the same artefacts again: each warning once
