@@ -603,3 +603,22 @@ def test_an_effect_judged_redundant_is_kept_when_the_search_without_it_ends_wors
     assert report is not None
     assert "thermal_drift" in report["effects"]
     assert not any(w.startswith("dropped thermal_drift") for w in report["warnings"])
+
+
+def test_an_axis_sticking_most_of_the_run_is_fitted_on_its_sliding_rows(tmp_path: object
+                                                                       ) -> None:
+    """The sweep's stribeck/21: a slow PID move under a breakaway force 1.65x the Coulomb
+    level; the axis slides on 16 % of the decimated rows. Those rows (161) are enough for the
+    inverse dynamics; fitting the stuck ones too (the old fallback below a fifth of the run)
+    fitted the integral's wind-up against the static friction: effort error 83 %, the Stribeck
+    friction unseen (x1.003). On the sliding rows it is named."""
+    from fricbench.sysid.diagnose.prepared import MIN_SLIDING_ROWS
+
+    case = S.draw_case("stribeck", 21)
+    prep = C.position_only(case, str(tmp_path))
+    n_sliding = int(prep.sliding_dec.sum())
+    assert MIN_SLIDING_ROWS <= n_sliding < 0.2 * prep.sliding_dec.size
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    assert outcome.report is not None and "stribeck_friction" in outcome.report["effects"]
+
