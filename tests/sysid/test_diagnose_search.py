@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 
 from fricbench.sysid.diagnose.search import (
+    EFFORT_TOLERANCE,
     ONE_BLOCK_MAJORITY,
     ONE_BLOCK_WORSE,
     _blocks,
+    _effort_check_tolerance,
     _judged_ratio,
     block_left_out,
 )
@@ -113,3 +115,39 @@ def test_blocks_are_fold_0s_then_fold_1s_and_cover_the_run(n: int, n_blocks: int
         assert np.all(folds[a:z] == folds[a])
         covered[a:z] += 1
     assert np.all(covered == 1)
+
+
+@pytest.mark.parametrize(("n_rows", "n_params"), [(80, 2), (80, 1), (160, 4), (2000, 2)])
+def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: int,
+                                                                        n_params: int) -> None:
+    """Parameters fitted on one fold raise the other fold's error even when the extra force
+    is zero: the tolerance of the position mode's effort check grows by that much on a short
+    log and stays at :data:`EFFORT_TOLERANCE` on a long one. Measured here by least squares on
+    random regressors (a mass, damping, Coulomb level and ``n_params`` useless extras): the
+    median inflation of the two-fold held-out error stays under the tolerance."""
+    n_dec = n_rows + n_rows // 4
+    sliding = np.ones(n_dec, dtype=bool)
+    sliding[::5] = False  # rows at rest are not counted
+    folds = block_folds(n_dec, 20)
+    prep = SimpleNamespace(folds_dec=folds, sliding_dec=sliding)
+    tol = _effort_check_tolerance(prep, n_params)  # type: ignore[arg-type]
+    n_train = min(int(np.count_nonzero((folds != k) & sliding)) for k in (0, 1))
+    assert tol == pytest.approx(EFFORT_TOLERANCE + n_params / n_train)
+    rng = np.random.default_rng(7)
+    ratios = []
+    for _ in range(400):
+        base = rng.standard_normal((n_dec, 3))
+        extra = rng.standard_normal((n_dec, n_params))
+        u = base @ np.array([1.0, 0.5, 0.3]) + rng.standard_normal(n_dec)
+        sse = []
+        for cols in (base, np.hstack([base, extra])):
+            total = 0.0
+            for k in (0, 1):
+                tr, te = (folds != k) & sliding, (folds == k) & sliding
+                coef, *_ = np.linalg.lstsq(cols[tr], u[tr], rcond=None)
+                total += float(np.sum((u[te] - cols[te] @ coef) ** 2))
+            sse.append(total)
+        ratios.append(sse[1] / sse[0])
+    assert np.median(ratios) - 1.0 < tol
+    if n_rows >= 2000:
+        assert tol < EFFORT_TOLERANCE + 0.003
