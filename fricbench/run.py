@@ -169,6 +169,8 @@ class Run:
         Problems that do not prevent an analysis.
     n_reversals : int
         Direction changes of the reference (set by the loader).
+    n_starts : int
+        Starts of the reference from a rest seen in the run (set by the loader).
     units : dict
         Units of ``"time"``, ``"position"`` and ``"effort"``.
     x_load : ndarray or None, shape (K,)
@@ -185,6 +187,7 @@ class Run:
     columns: dict[str, str | None] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     n_reversals: int = 0
+    n_starts: int = 0
     units: dict[str, str] = field(
         default_factory=lambda: {"time": "s", "position": "m", "effort": "N"})
     x_load: np.ndarray | None = None

@@ -36,12 +36,13 @@ from typing import BinaryIO
 import numpy as np
 
 from fricbench.run import Run, validate_run_arrays
-from fricbench.run_events import hysteresis_sign, sign_reversals
+from fricbench.run_events import hysteresis_sign, motion_events, sign_reversals
 from fricbench.sysid.units import position_unit as _position_unit
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
            "TIME_JITTER_TOLERANCE", "MAX_FILE_BYTES", "MAX_ROWS", "MAX_LINE_BYTES",
-           "SAMPLE_TIME_RANGE", "POSITION_LIMIT", "MIN_STROKE", "EFFORT_RANGE"]
+           "SAMPLE_TIME_RANGE", "POSITION_LIMIT", "MIN_STROKE", "EFFORT_RANGE", "MIN_STARTS",
+           "REST_S"]
 
 MIN_SAMPLES = 200
 """Fewest samples a run may have (0.2 s at 1 kHz)."""
@@ -72,6 +73,15 @@ MIN_STROKE = 1e-8
 EFFORT_RANGE = (1e-9, 1e12)
 """Range of the largest effort magnitude in any unit (N, A, V, % or DAC counts); an effort
 outside it, or constant, is degenerate: refused when required, else dropped with a warning."""
+
+MIN_STARTS = 2
+"""Starts from rest that let a run whose reference never reverses show its friction level:
+at rest friction holds the axis, where a constant force would push it (one start, at the
+edge of a run, is too little to tell)."""
+
+REST_S = 0.01
+"""Shortest rest of the reference that counts, s: shorter pauses between moves of one
+direction are the motion's own."""
 
 _MM_SUSPECT_RANGE = 2.0  # m: a feed-axis stroke longer than this is more likely in mm
 _CONSTANT_REL = 1e-9  # a column varying by less than this share of its magnitude is constant
@@ -245,7 +255,23 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     # the position read at 1 kHz, deaf to noise and dither)
     step = max(1, int(round(1e-3 / ts)))
     n_rev = int(sign_reversals(hysteresis_sign(xr[::step], max(1e-3 * span_ref, 1e-9))).size)
-    if n_rev == 0:
+    # a start from a rest of the reference (the rest seen in the run, at least REST_S long):
+    # where the axis rests, friction holds it and a constant force would push it
+    vr_k = np.gradient(xr[::step], step * ts)
+    rest_gap = max(1, int(round(REST_S / (step * ts))))
+    n_starts = sum(1 for e in motion_events(vr_k, step * ts,
+                                            rest_speed=0.01 * float(np.max(np.abs(vr_k))),
+                                            max_gap=rest_gap)
+                   if e.kind == "start" and e.index > 0)
+    if n_rev == 0 and n_starts >= MIN_STARTS:
+        warnings.append(
+            "the reference never reverses: direction-dependent effects, friction varying "
+            "along the stroke and backlash cannot be separated from a constant force "
+            "(asymmetric_friction, position_dependent_friction and backlash are not tried); "
+            f"coulomb_friction and stribeck_friction are judged on its {n_starts} starts from "
+            "rest, where friction holds the axis and a constant force would not"
+        )
+    elif n_rev == 0:
         warnings.append(
             "the reference never reverses: friction levels, direction-dependent effects and "
             "backlash cannot be separated from a constant force; coulomb_friction, "
@@ -256,7 +282,8 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                         f"{float(np.ptp(xl)):.3g} {si}: less than the {MIN_STROKE:g} {si} a "
                         "diagnosis needs; check the column choice (--load-position) and unit")
     return RunData(t=clean["t"], x_ref=xr, x=xm, u=uu, ts=ts, source=source,
-                   columns=names, warnings=tuple(warnings), n_reversals=n_rev, units=units,
+                   columns=names, warnings=tuple(warnings), n_reversals=n_rev,
+                   n_starts=n_starts, units=units,
                    x_load=xl)
 
 

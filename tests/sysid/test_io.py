@@ -122,6 +122,26 @@ def test_no_reversal_is_a_warning_naming_the_skipped_analyses():
     assert any("never reverses" in w and "backlash" in w for w in run.warnings)
 
 
+def test_a_reference_that_never_reverses_but_rests_shows_its_friction_at_the_starts():
+    """Three moves of one direction, each from a rest: the friction level is judged on the
+    starts (friction holds the axis at rest, a constant force would not); direction-
+    dependent effects are still not tried."""
+    t = np.arange(4000) * 1e-3
+    ramp = np.clip((t % 1.0 - 0.3) / 0.5, 0.0, 1.0)
+    xr = 0.01 * (np.floor(t) + ramp)
+    run = validate_arrays(t, xr, xr - 1e-7)
+    assert run.n_reversals == 0
+    assert run.n_starts == 4
+    text = " ".join(run.warnings)
+    assert "judged on its 4 starts from rest" in text and "backlash are not tried" in text
+    # one start is too little
+    once = validate_arrays(t, 0.01 * np.clip((t - 0.3) / 3.0, 0.0, 1.0),
+                           0.01 * np.clip((t - 0.3) / 3.0, 0.0, 1.0) - 1e-7)
+    assert once.n_starts == 1
+    assert any("coulomb_friction, stribeck_friction" in w and "not tried" in w
+               for w in once.warnings)
+
+
 def test_millimetres_are_suspected(tmp_path):
     path = _write(tmp_path / "run.csv", "t,x_ref,x,u", _good_rows(scale=1000.0))
     run = load_run(path)

@@ -41,7 +41,12 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController
-from fricbench.sysid.diagnose.effects import describe_parameters, effect_names, get_effect
+from fricbench.sysid.diagnose.effects import (
+    Effect,
+    describe_parameters,
+    effect_names,
+    get_effect,
+)
 from fricbench.sysid.diagnose.equation_error import loop_by_equation_error
 from fricbench.sysid.diagnose.leastsq import matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.models import (
@@ -60,6 +65,7 @@ from fricbench.sysid.diagnose.models import (
 )
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.diagnose.signals import fold_blocks
+from fricbench.sysid.io import MIN_STARTS
 
 __all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
 
@@ -230,6 +236,14 @@ def _n_params(effect: str, effects: tuple[str, ...]) -> int:
     return len(get_effect(effect).free(effects))
 
 
+def _shown_by(effect: Effect, prep: Prepared) -> bool:
+    """Whether the motion of ``prep``'s run can show ``effect`` at all: its reversals, or its
+    starts from rest for a friction level (:attr:`Effect.shown_at_rests`)."""
+    if not effect.needs_reversals or prep.run.n_reversals > 0:
+        return True
+    return effect.shown_at_rests and prep.run.n_starts >= MIN_STARTS
+
+
 def _available(model: GreyBox, prep: Prepared, settings: SearchSettings) -> list[str]:
     out = []
     for name in settings.candidates:
@@ -238,7 +252,7 @@ def _available(model: GreyBox, prep: Prepared, settings: SearchSettings) -> list
             continue
         if any(r not in model.effects for r in effect.requires):
             continue
-        if effect.needs_reversals and prep.run.n_reversals == 0:
+        if not _shown_by(effect, prep):
             continue
         if not effect.available(prep):
             continue
@@ -1027,7 +1041,7 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
             effects = m.effects + (req, name)
             if (req not in effect.requires or name in m.effects
                     or any(r not in effects for r in effect.requires)
-                    or (effect.needs_reversals and prep.run.n_reversals == 0)
+                    or not _shown_by(effect, prep)
                     or not effect.available(prep)):
                 continue
             heldout = 0.0

@@ -60,6 +60,10 @@ class Effect(ABC):
         friction level).
     needs_reversals : bool
         Only identifiable when the motion reverses.
+    shown_at_rests : bool
+        Also identifiable, without reversals, from starts from rest
+        (:data:`fricbench.sysid.io.MIN_STARTS`): a friction level, which holds the axis at rest
+        where a constant force would push it.
     summary : str
         One line for reports.
     parameters : tuple of int
@@ -99,6 +103,7 @@ class Effect(ABC):
     kind: ClassVar[str]
     requires: ClassVar[tuple[str, ...]] = ()
     needs_reversals: ClassVar[bool] = False
+    shown_at_rests: ClassVar[bool] = False
     summary: ClassVar[str]
     parameters: ClassVar[tuple[int, ...]]
     shape_parameters: ClassVar[tuple[int, ...]] = ()

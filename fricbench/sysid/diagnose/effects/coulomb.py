@@ -22,6 +22,7 @@ class CoulombFriction(Effect):
     # (stiction is far from linear): fitted for real at every step while it is missing
     always_fitted = True
     needs_reversals = True
+    shown_at_rests = True
     summary = "a friction force of constant level opposing the motion"
     parameters = (CL.I_FC,)
     force_parameters = (CL.I_FC,)

@@ -26,6 +26,7 @@ class StribeckFriction(Effect):
     friction = True
     requires = ("coulomb_friction",)
     needs_reversals = True
+    shown_at_rests = True
     summary = "extra friction at low speed that decays with a Stribeck velocity"
     parameters = (CL.I_FS, CL.I_VS)
     shape_parameters = (CL.I_VS,)
