@@ -298,6 +298,19 @@ def test_draw_makes_effects_visible_and_is_reproducible() -> None:
     assert a.truth()["effect"] == "position_dependent_friction"
 
 
+@pytest.mark.parametrize("seed", [5, 6])
+def test_a_drawn_cogging_completes_a_period_within_the_travel(seed: int) -> None:
+    """Seeds whose first draw put the cogging's period beyond the run's travel (6.0 mm over
+    2.6 mm; 1.56 rad over 1.26 rad): such a cogging is, over the travel, a friction level
+    changing along the stroke, which the issue's rule rejects as a period; the draw goes on
+    until the period fits."""
+    case = S.draw_case("cogging", seed)
+    assert case.attempts > 1
+    x = case.clean.x_table[np.abs(np.gradient(case.clean.x_table)) > 0.0]
+    assert float(np.ptp(x)) >= case.plant.cogging_period
+    assert case.signature is not None and case.signature >= 2.0 * case.floor
+
+
 def test_the_friction_aware_fit_of_a_pid_loop_reaches_the_true_one(tmp_path: object) -> None:
     """A PID loop with a filtered derivative and a 2-sample delay, no effort logged (the
     sweep's thermal/8): the loop and friction fitted together to the position come within 1.5
