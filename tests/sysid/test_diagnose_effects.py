@@ -180,3 +180,27 @@ def test_a_thermal_time_constant_is_never_below_half_a_second(duration: float,
     # half a second on a short run; a hundredth of the run on a long one
     assert par.lo == pytest.approx(floor)
     assert par.hi == pytest.approx(20.0 * duration)
+
+
+@pytest.mark.parametrize("name", ["coulomb_friction", "stribeck_friction", "force_offset",
+                                  "asymmetric_friction", "cogging"])
+def test_raised_friction_bounds_widen_the_level_and_keep_the_starts(name: str, prep) -> None:  # type: ignore[no-untyped-def]
+    """``Bounds.friction_raise`` widens the bound and the clip of a force level (a friction
+    level, a detent force) by that factor; its probes (fractions of the force scale) do not
+    move."""
+    effect = get_effect(name)
+    raised = replace(BOUNDS, friction_raise=10.0)
+    assert raised.friction == pytest.approx(10.0 * BOUNDS.force)
+    p = effect.switched_on(CL.default_plant(1.0, 0.0), prep)
+    p[CL.I_FC] = 0.5 * BOUNDS.force
+    levels = [i for i in effect.parameters if i not in effect.shape_parameters
+              and i != CL.I_DB]
+    assert levels
+    for i in levels:
+        assert effect.bounds(i, 0.0, raised).hi == pytest.approx(
+            10.0 * effect.bounds(i, 0.0, BOUNDS).hi)
+        big = 100.0 * BOUNDS.force
+        assert effect.clip(i, big, raised) == pytest.approx(10.0 * effect.clip(i, big, BOUNDS))
+    effects = ("coulomb_friction",) if name == "coulomb_friction" else ("coulomb_friction", name)
+    assert (effect.probes(p, effects, prep, BOUNDS, prep.x)
+            == effect.probes(p, effects, prep, raised, prep.x))

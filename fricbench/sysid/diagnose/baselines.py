@@ -15,6 +15,7 @@ from fricbench.sysid.diagnose.controllers import (
     CascadeController,
     fit_arx_controller,
 )
+from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.equation_error import delay_steps, loop_by_equation_error
 from fricbench.sysid.diagnose.models import (
     Bounds,
@@ -33,7 +34,8 @@ from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 
 __all__ = ["LinearTF", "fit_law", "fit_law_like", "law_relerr_floor", "LAW_PREFILTERS",
            "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort", "effort_delay",
-           "force_scale", "starting_controllers", "friction_aware_loop"]
+           "force_scale", "starting_controllers", "friction_aware_loop",
+           "friction_aware_fit_scaled", "FRICTION_RAISE"]
 
 
 @dataclass
@@ -570,6 +572,47 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     if best_pid is not None and (best is None or best_pid.cost < PID_MARGIN * best.cost):
         best = best_pid
     return best
+
+
+FRICTION_RAISE = 10.0
+"""Factor the friction levels' bounds are raised by when the friction-aware fit's Coulomb force
+ends on its bound (:func:`friction_aware_fit_scaled`)."""
+
+
+def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
+                              ) -> tuple[PositionFitResult | None, Bounds]:
+    """:func:`friction_aware_fit`, and again with the friction levels' bounds
+    :data:`FRICTION_RAISE` times higher (:attr:`Bounds.friction_raise`) when its Coulomb force
+    ended on its upper bound; the better fit and its bounds.
+
+    The run's force scale (the reference's largest acceleration, or the linear loop's virtual
+    effort) is the inertial force of the motion, and every force's bounds and starts are
+    multiples of it. A slow axis can be held by a friction many times that: on the second
+    simulator's posdep/28 the Coulomb force per unit mass was 20 times the scale, the fit
+    stopped on its bound of 2, the loop's gains took up the rest and the friction varying along
+    the stroke was never found. A level pressed against a bound that is no physical limit is
+    refitted beyond it (the issue's rule for a parameter on its bound), from the same starts;
+    the raised bounds then hold for the whole search, whose later fits would press against the
+    same bound. The starts of the other forces stay multiples of the force scale (raising the
+    scale itself moved them too, and a Stribeck friction present was lost from them).
+    """
+    fit = friction_aware_fit(linear, prep, bounds)
+    if fit is None or "coulomb_friction" not in fit.model.effects:
+        return fit, bounds
+    fc = float(fit.model.plant[CL.I_FC])
+    hi = get_effect("coulomb_friction").bounds(CL.I_FC, fc, bounds).hi
+    if fc < hi * (1.0 - BOUND_RELATIVE):
+        return fit, bounds
+    raised = replace(bounds, friction_raise=bounds.friction_raise * FRICTION_RAISE)
+    refit = friction_aware_fit(linear, prep, raised)
+    if refit is not None and refit.cost < fit.cost:
+        return refit, raised
+    return fit, bounds
+
+
+BOUND_RELATIVE = 1e-3
+"""A force within this fraction of its upper bound ended on it (the trust-region solver keeps
+its iterates a little inside the box)."""
 
 
 def _gain_on_bound(model: GreyBox, bounds: Bounds) -> str | None:

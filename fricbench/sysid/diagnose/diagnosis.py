@@ -23,7 +23,7 @@ from fricbench.sysid.diagnose.baselines import (
     fit_linear_cascade,
     fit_linear_tf,
     fit_linear_with_effort,
-    friction_aware_fit,
+    friction_aware_fit_scaled,
     friction_aware_loop,
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
@@ -530,7 +530,7 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
     limit = None
     fit = None
     if n_reversals > 0:
-        fit = friction_aware_fit(linear, prep, bounds)
+        fit, bounds = friction_aware_fit_scaled(linear, prep, bounds)
         delay = int(fit.model.plant[CL.I_DELAY]) if fit is not None else 0
         if delay > 0:
             # the loop fitted with friction holds a command delay (from the equation error's

@@ -92,6 +92,12 @@ class Bounds:
     rotary : bool
         Positions are angles (rad): the limits stated as lengths (a backlash of at most
         1 mm) are stated as angles instead.
+    friction_raise : float
+        Factor the force levels' bounds (Coulomb, Stribeck, a constant force, a direction's
+        difference, a detent force) are raised by beyond their multiples of ``force``
+        (:attr:`friction`): 1, or more once a fit pressed a friction level against its bound
+        (a slow axis held by a friction many times the inertial force that sets ``force``).
+        Starts stay multiples of ``force``.
     """
 
     force: float
@@ -102,6 +108,12 @@ class Bounds:
     noise: float
     loop_ts: float | None = None
     rotary: bool = False
+    friction_raise: float = 1.0
+
+    @property
+    def friction(self) -> float:
+        """The scale of the friction levels' bounds: ``force`` times ``friction_raise``."""
+        return self.force * self.friction_raise
 
     @property
     def controller_ts(self) -> float:

@@ -43,12 +43,12 @@ class AsymmetricFriction(Effect):
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         if i == CL.I_DB:
             return Param(i, False, -b.damping_max, b.damping_max, b.damping_scale)
-        return Param(i, False, -2.0 * b.force, 2.0 * b.force, b.force)
+        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
         if i == CL.I_DB:
             return float(np.clip(value, -0.9 * b.damping_max, 0.9 * b.damping_max))
-        return float(np.clip(value, -1.5 * b.force, 1.5 * b.force))
+        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:

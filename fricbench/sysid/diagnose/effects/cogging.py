@@ -38,12 +38,14 @@ class Cogging(Effect):
         if i == CL.I_COGP:
             # the period is found by the spectrum and only refined by the fit
             return Param(i, True, value * 0.98, value * 1.02, 1.0)
-        return Param(i, False, -2.0 * b.force, 2.0 * b.force, b.force)
+        # a detent force is a force level like the friction's, not a multiple of the motion's
+        # inertial force: its bounds follow the friction levels' (Bounds.friction)
+        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
         if i == CL.I_COGP:
             return value
-        return float(np.clip(value, -1.5 * b.force, 1.5 * b.force))
+        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:

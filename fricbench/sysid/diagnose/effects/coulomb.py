@@ -29,10 +29,10 @@ class CoulombFriction(Effect):
     nonnegative = (CL.I_FC,)
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
-        return Param(i, False, 0.0, 2.0 * b.force, b.force)
+        return Param(i, False, 0.0, 2.0 * b.friction, b.force)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
-        return min(max(value, 0.02 * b.force), 1.5 * b.force)
+        return min(max(value, 0.02 * b.force), 1.5 * b.friction)
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:

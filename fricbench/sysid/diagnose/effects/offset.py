@@ -23,10 +23,10 @@ class ForceOffset(Effect):
     force_parameters = (CL.I_OFF,)
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
-        return Param(i, False, -2.0 * b.force, 2.0 * b.force, b.force)
+        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
-        return float(np.clip(value, -1.5 * b.force, 1.5 * b.force))
+        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:

@@ -41,11 +41,11 @@ class StribeckFriction(Effect):
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         if i == CL.I_VS:
             return Param(i, True, *_vs_range(b.v_max), 1.0)
-        return Param(i, False, 0.0, 2.0 * b.force, b.force)
+        return Param(i, False, 0.0, 2.0 * b.friction, b.force)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
         if i == CL.I_FS:
-            return min(max(value, 0.02 * b.force), 1.5 * b.force)
+            return min(max(value, 0.02 * b.force), 1.5 * b.friction)
         return value
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
