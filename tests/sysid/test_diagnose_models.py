@@ -269,6 +269,34 @@ def test_joint_position_fit_of_one_run_is_the_position_fit():
         JointPositionFit([], params)
 
 
+def test_a_period_off_by_more_than_its_trust_region_walks_to_the_truth():
+    """A cogging period started 6 % long: the fit's period moves 2 % at a time (a trust
+    region, not a physical range) and ends at the truth; with a fixed region it stays on the
+    region's edge, 4 % long."""
+    from dataclasses import replace
+
+    ref = _reference(duration=4.0)
+    axis = Axis().with_effects(noise_std=0.1e-6, cogging_amplitude=1.5, cogging_period=2e-3,
+                               cogging_phase=0.5)
+    res = simulate(axis, ref, seed=2)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
+    truth = _grey_box_of(axis).copy(effects=("coulomb_friction", "stribeck_friction",
+                                             "cogging"))
+    start = truth.copy()
+    start.plant[CL.I_COGP] *= 1.06
+    b = Bounds(force=5.0, stroke=prep.stroke, v_max=prep.v_max, duration=prep.duration,
+               ts=prep.ts, noise=prep.noise.rms)
+    params = position_params(start, b, controller=False, effects=["cogging"], damping=False)
+    period = [p for p in params if p.target == CL.I_COGP]
+    assert len(period) == 1 and period[0].trust
+    walked = PositionFit(prep, params).run(start, max_iter=10)
+    assert walked.model.plant[CL.I_COGP] == pytest.approx(2e-3, rel=5e-3)
+    fixed = [replace(p, trust=False) for p in params]
+    stuck = PositionFit(prep, fixed).run(start, max_iter=10)
+    assert stuck.model.plant[CL.I_COGP] == pytest.approx(2e-3 * 1.06 * 0.98, rel=2e-3)
+    assert walked.cost < stuck.cost
+
+
 # -- the noise floor: rounded exports, a stated quantum, never zero ---------------------------
 def test_quantum_of_a_rounded_export_and_a_floor_never_zero():
     from fricbench.sysid.diagnose.signals import noise_floor

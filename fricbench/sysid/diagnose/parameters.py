@@ -32,6 +32,10 @@ class Param:
         Physical bounds.
     scale : float
         Typical magnitude (optimiser scaling and finite-difference step).
+    trust : bool
+        ``lo`` and ``hi`` are a trust region around the start, not a physical range (a
+        period found by a spectrum, refined by the fit): a fit that ends on one of them moves
+        the region to its end point and goes on (:meth:`~.models.PositionFit.run`).
     """
 
     target: str | int
@@ -39,6 +43,22 @@ class Param:
     lo: float
     hi: float
     scale: float
+    trust: bool = False
+
+    def recentred(self, value: float) -> Param:
+        """The same region moved so that its centre (geometric for a logarithmic parameter,
+        arithmetic otherwise) is ``value``."""
+        if self.log:
+            r = value / math.sqrt(self.lo * self.hi)
+            return Param(self.target, self.log, self.lo * r, self.hi * r, self.scale, self.trust)
+        d = value - 0.5 * (self.lo + self.hi)
+        return Param(self.target, self.log, self.lo + d, self.hi + d, self.scale, self.trust)
+
+    def on_bound(self, value: float, tol: float = 1e-3) -> bool:
+        """Whether ``value`` ended within ``tol`` of the optimiser's range from a bound."""
+        lo, hi = self.bounds()
+        t = self.to_theta(value)
+        return t <= lo + tol * (hi - lo) or t >= hi - tol * (hi - lo)
 
     def get(self, model: GreyBox) -> float:
         """Physical value in ``model``."""

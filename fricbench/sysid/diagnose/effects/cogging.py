@@ -36,8 +36,9 @@ class Cogging(Effect):
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         if i == CL.I_COGP:
-            # the period is found by the spectrum and only refined by the fit
-            return Param(i, True, value * 0.98, value * 1.02, 1.0)
+            # the period is found by the spectrum and refined by the fit within a trust
+            # region, which follows the fit when it ends on its edge
+            return Param(i, True, value * 0.98, value * 1.02, 1.0, trust=True)
         # a detent force is a force level like the friction's, not a multiple of the motion's
         # inertial force: its bounds follow the friction levels' (Bounds.friction)
         return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
