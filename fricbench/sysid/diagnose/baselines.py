@@ -611,19 +611,13 @@ def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
     if fit is None or "coulomb_friction" not in fit.model.effects:
         return fit, bounds
     fc = float(fit.model.plant[CL.I_FC])
-    hi = get_effect("coulomb_friction").bounds(CL.I_FC, fc, bounds).hi
-    if fc < hi * (1.0 - BOUND_RELATIVE):
+    if get_effect("coulomb_friction").bounds(CL.I_FC, fc, bounds).bound_hit(fc) != "upper":
         return fit, bounds
     raised = replace(bounds, friction_raise=bounds.friction_raise * FRICTION_RAISE)
     refit = friction_aware_fit(linear, prep, raised)
     if refit is not None and refit.cost < fit.cost:
         return refit, raised
     return fit, bounds
-
-
-BOUND_RELATIVE = 1e-3
-"""A force within this fraction of its upper bound ended on it (the trust-region solver keeps
-its iterates a little inside the box)."""
 
 
 def _gain_on_bound(model: GreyBox, bounds: Bounds) -> str | None:

@@ -704,12 +704,6 @@ QUANTUM_MULTIPLES = (1, 2, 3, 4)
 """The multiples of the sensor quantum a period is compared with."""
 
 
-BOUND_TOLERANCE = 1e-3
-"""A shape parameter within this fraction of a bound (of the span; of the bound itself for a
-log-scaled one) ended on it. The trust-region solver keeps its iterates strictly inside the
-box and stops after a few tens of evaluations, so a parameter pressed against a bound ends a
-little inside it: on the second simulator's posdep/28 a compliance's damping ratio ended at
-0.29996 against its bound 0.3 (1.5e-4 inside) and was named; 1e-4 let it through."""
 
 
 def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
@@ -757,19 +751,11 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
             continue
         v = float(p[i])
         par = effect.bounds(i, v, b)
-        span = par.hi - par.lo
-        if not (np.isfinite(span) and span > 0.0):
-            continue
-        tol = BOUND_TOLERANCE * span if not par.log else BOUND_TOLERANCE * abs(par.hi)
-        hit = None
-        if v >= par.hi - tol:
-            hit = f"upper bound {par.hi:.4g}"
-        elif par.lo != 0.0 and v <= par.lo + (BOUND_TOLERANCE * abs(par.lo) if par.log
-                                              else tol):
-            hit = f"lower bound {par.lo:.4g}"
-        if hit is not None:
-            return (f"{name}: its parameter {CL.PLANT_NAMES[i]} = {v:.4g} ended on its {hit}: "
-                    "the optimum lies outside the physical range")
+        side = par.bound_hit(v)
+        if side is not None:
+            at = par.hi if side == "upper" else par.lo
+            return (f"{name}: its parameter {CL.PLANT_NAMES[i]} = {v:.4g} ended on its {side} "
+                    f"bound {at:.4g}: the optimum lies outside the physical range")
     return effect.evidence(model, prep, w, simulate_models)
 
 
