@@ -988,9 +988,7 @@ def _without_effect(kind: str, base: Plant, plant: Plant, clean: Trace) -> Plant
     dependence, and must not count as a visible one."""
     if kind != "posdep":
         return base
-    moving = np.abs(np.gradient(clean.x_table)) > 0.0
-    x = clean.x_table[moving] if np.any(moving) else clean.x_table
-    mean = float(np.mean(plant.friction_level(x)))
+    mean = float(np.mean(plant.friction_level(_sliding_positions(clean))))
     return replace(base, coulomb=base.coulomb * mean, breakaway=base.breakaway * mean)
 
 
@@ -1003,9 +1001,15 @@ def _periodic_in_travel(kind: str, plant: Plant, clean: Trace) -> bool:
     seen over a small part of its variation does not count as a position dependence)."""
     if kind != "cogging":
         return True
-    moving = np.abs(np.gradient(clean.x_table)) > 0.0
-    x = clean.x_table[moving] if np.any(moving) else clean.x_table
+    x = _sliding_positions(clean)
     return float(np.max(x) - np.min(x)) >= plant.cogging_period
+
+
+def _sliding_positions(clean: Trace) -> np.ndarray:
+    """The table positions a noiseless run passes while moving (all of them if it never
+    moves)."""
+    moving = np.abs(np.gradient(clean.x_table)) > 0.0
+    return clean.x_table[moving] if np.any(moving) else clean.x_table
 
 
 def _clip_level(rng: np.random.Generator, plant: Plant, command: np.ndarray,
