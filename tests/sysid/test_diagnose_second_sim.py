@@ -701,6 +701,30 @@ def test_friction_many_times_the_inertial_force_is_not_held_by_its_bound(tmp_pat
     fc = report["steps"][-1]["model"]["effects"]["coulomb_friction"]["fc_m_s2"]
     assert abs(fc / true_fc - 1.0) < 0.2
 
+
+def test_a_linear_loop_gone_stiff_does_not_set_the_friction_scale(tmp_path: object) -> None:
+    """The sweep's thermal/20: a cascade with a 3-sample command delay, no effort. The linear
+    loop fitted to it is far too stiff, and its virtual effort (the force scale of every
+    friction start and bound) came out 2600 times the reference's largest acceleration: the
+    friction-aware fit settled on a Coulomb force 90 times the truth, a loop 7 times too fast,
+    and the drift was missed (190 -> 14.7 um, floor 0.013 um). The fit is also run at the
+    acceleration's scale and the better one kept: the true loop's level of friction, and the
+    drift named."""
+    from fricbench.sysid.diagnose.baselines import fit_linear_cascade
+
+    case = S.draw_case("thermal", 20)
+    prep = C.position_only(case, str(tmp_path))
+    _, _, bounds, _ = fit_linear_cascade(prep)  # type: ignore[arg-type]
+    assert bounds.force > 100.0 * float(np.max(np.abs(prep.inputs.ar)))
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    true_fc = case.plant.coulomb / case.plant.mass
+    fc = report["steps"][-1]["model"]["effects"]["coulomb_friction"]["fc_m_s2"]
+    assert abs(fc / true_fc - 1.0) < 0.2
+
+
 def test_a_backlash_logged_slower_than_its_loop_is_judged_on_the_loops_rate(
         tmp_path: object) -> None:
     """The sweep's backlash/20: a 1 kHz cascade on the motor's encoder, the table across a
