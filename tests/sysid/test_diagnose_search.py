@@ -151,30 +151,3 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
     assert np.median(ratios) - 1.0 < tol
     if n_rows >= 2000:
         assert tol < EFFORT_TOLERANCE + 0.003
-
-
-def test_an_output_effect_is_judged_with_the_forces_held_and_the_loop_boxed() -> None:
-    """An output effect's fold fits free the boxed loop and every output effect (one fitted
-    before another is biased by it), and hold the damping and the forces found so far; its
-    base frees the same, less the candidate."""
-    from fricbench.sysid.diagnose import closed_loop as CL
-    from fricbench.sysid.diagnose.controllers import CascadeController
-    from fricbench.sysid.diagnose.models import GreyBox
-    from fricbench.sysid.diagnose.parameters import Bounds
-    from fricbench.sysid.diagnose.search import EVAL_BOX, _eval_output_params, _eval_params
-
-    b = Bounds(force=2.0, stroke=0.1, v_max=0.05, duration=10.0, ts=1e-3, noise=1e-6)
-    plant = CL.default_plant(1.0, 3.0)
-    plant[CL.I_FC] = 0.5
-    plant[CL.I_BL] = 1e-5
-    loop = CascadeController(wv=100.0, kp=30.0, ki=10.0, kvff=1.0, kaff=0.5)
-    m = GreyBox(loop, plant, ("coulomb_friction", "backlash", "thermal_drift"))
-    free = {p.target for p in _eval_output_params(m, b, "thermal_drift")}
-    assert {"wv", "kp_per_wv", "ki_per_wv", CL.I_BL, CL.I_THA, CL.I_THT} <= free
-    assert not free & {CL.I_FC, CL.I_B}
-    base = {p.target for p in _eval_output_params(m.without("thermal_drift"), b, None)}
-    assert base == free - {CL.I_THA, CL.I_THT, CL.I_THV}
-    # the loop is boxed as in any candidate's judgement; a force candidate frees all
-    wv = next(p for p in _eval_output_params(m, b, "thermal_drift") if p.target == "wv")
-    assert wv.hi <= 100.0 * EVAL_BOX * (1 + 1e-9)
-    assert {CL.I_FC, CL.I_B} <= {p.target for p in _eval_params(m, b)}

@@ -18,10 +18,7 @@ size, refits every parameter with it (grey box) and repeats.
   feedforward the reference is tracked whatever they are), so while a candidate is judged
   they may only move by a factor ``EVAL_BOX`` and the integral action may not vanish: an
   effect must explain the residual through the loop as it is, not by changing the loop (the
-  known ways to mistake friction for backlash or a slow loop for thermal drift). An output
-  effect (backlash, thermal drift, compliance) is judged with the damping and the forces found
-  so far held at their fit on all samples: it adds a path between the motor and the
-  measurement, and a half run fits a loop and a friction of any size together. Before the
+  known ways to mistake friction for backlash or a slow loop for thermal drift). Before the
   first effect, the fits also start from the loop identified together with a Coulomb force
   (:func:`fricbench.sysid.diagnose.baselines.friction_aware_loop`).
 
@@ -892,25 +889,6 @@ def _eval_params(model: GreyBox, b: Bounds) -> list:
     return position_params(model, b, controller=True, controller_box=EVAL_BOX)
 
 
-def _eval_output_params(model: GreyBox, b: Bounds, name: str | None) -> list:
-    """Free parameters while judging an output effect ``name`` (None: the model it is judged
-    against): the boxed loop and the output effects' parameters; the damping and the forces
-    found so far are held at their fit on all samples.
-
-    An output effect adds a path between the motor and the measured position, not a force.
-    With every force free as well, half a run is fitted by a loop and friction of any size
-    together (the second simulator's backlash/20: a Coulomb level 2.7 times the truth on one
-    training fold, held-out error x1.3 with the gap where the whole run's fit of the gap cuts
-    it 70 times): the judgement then compares two fits over-fitted at random. Held, x0.08.
-    """
-    # the output effects found so far stay free: one fitted without the other is biased by
-    # it (the second simulator's thermal/16: a gap fitted before the drift, held, left the
-    # drift x1.14 where free it cut the error x0.46)
-    effects = tuple(e for e in model.effects if get_effect(e).kind == "output")
-    return position_params(model, b, controller=True, effects=effects, damping=False,
-                           controller_box=EVAL_BOX)
-
-
 def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray,
                   mask: np.ndarray) -> GreyBox:
     m = _init_effect(model, name, prep, b)
@@ -1187,36 +1165,25 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # from each of the given loops too and keeps the better fit of its training fold
         loops = [m.controller] + (list(alt_loops) if len(steps) == 1 else [])
 
-        def fold_fit(start: GreyBox, train: np.ndarray, loops: list = loops,
-                     output: str | None = "") -> PositionFitResult:
-            """The best fit on ``train`` from ``start`` under each loop; ``output``: the
-            freedom of an output effect's judgement (its name, or None for its base), ""
-            the full one (:func:`_eval_output_params`, :func:`_eval_params`)."""
+        def fold_fit(start: GreyBox, train: np.ndarray,
+                     loops: list = loops) -> PositionFitResult:
             best: PositionFitResult | None = None
             # an output effect's start may bring its own loop (compliance: a rigid loop fitted
             # to a compliant axis is far off): it is tried first, boxed like the others
             for loop in dict.fromkeys([start.controller, *loops]):
                 s0 = start.copy(controller=loop)
-                params = (_eval_params(s0, b) if output == ""
-                          else _eval_output_params(s0, b, output))
-                res = PositionFit(prep, params, train).run(s0, max_iter=budget_iter)
+                res = PositionFit(prep, _eval_params(s0, b), train).run(s0, max_iter=budget_iter)
                 if best is None or res.cost < best.cost:
                     best = res
             assert best is not None
             return best
 
-        def base_fits(output: str | None = "", m: GreyBox = m) -> tuple[float, np.ndarray]:
-            """Held-out squared error and block errors of the model without a candidate."""
-            heldout, blocks = 0.0, np.zeros(0)
-            for k in (0, 1):
-                fk = fold_fit(m, prep.folds != k, output=output)
-                heldout += _position_sse(fk.y, prep, prep.folds == k)
-                blocks = np.concatenate([blocks, _block_sse(fk.y, prep, k)])
-            return heldout, blocks
-
-        base_heldout, base_blocks = base_fits()
-        # the base of the output effects' judgement, fitted when one is first judged
-        output_base: tuple[float, np.ndarray] | None = None
+        base_heldout = 0.0
+        base_blocks = np.zeros(0)
+        for k in (0, 1):
+            fk = fold_fit(m, prep.folds != k)
+            base_heldout += _position_sse(fk.y, prep, prep.folds == k)
+            base_blocks = np.concatenate([base_blocks, _block_sse(fk.y, prep, k)])
         scores: list[CandidateScore] = []
         confirmed: dict[str, dict[int, PositionFitResult]] = {}
         effort_base: float | None = None
@@ -1239,15 +1206,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             heldout = 0.0
             cand_blocks = np.zeros(0)
             fits: dict[int, PositionFitResult] = {}
-            is_output = get_effect(name).kind == "output"
-            ref_heldout, ref_blocks = base_heldout, base_blocks
-            if is_output:
-                if output_base is None:
-                    output_base = base_fits(output=None)
-                ref_heldout, ref_blocks = output_base
             for k in (0, 1):
                 train = prep.folds != k
-                if is_output:
+                if get_effect(name).kind == "output":
                     starts = [_output_start(m, name, prep, b, cur.y, train)]
                 else:
                     starts = _fit_starts(variants[name], name, b)
@@ -1258,14 +1219,13 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                     starts += _equation_error_starts(m, name, prep, b, train)
                 if name in runners_up:
                     starts.append(_carried_over(m, name, runners_up[name][k]))
-                res = min((fold_fit(st, train, output=name if is_output else "")
-                           for st in starts), key=lambda r: r.cost)
+                res = min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
                 fits[k] = res
                 heldout += _position_sse(res.y, prep, ~train)
                 cand_blocks = np.concatenate([cand_blocks, _block_sse(res.y, prep, k)])
             n_par = _n_params(name, fits[0].model.effects)
-            rho, left_out, block_note = _judged_ratio(heldout, ref_heldout, cand_blocks,
-                                                      ref_blocks)
+            rho, left_out, block_note = _judged_ratio(heldout, base_heldout, cand_blocks,
+                                                      base_blocks)
             note = f"linearised x{ratio:.3f}"
             if left_out is not None:
                 a, z = _blocks(prep)[left_out]
@@ -1299,7 +1259,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                 negligible.add(name)
             log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
                 f"size {size / floor:.2f} x floor{effort_note}"
-                + (f" (one block left out: x{heldout / max(ref_heldout, 1e-300):.3f} with it)"
+                + (f" (one block left out: x{heldout / max(base_heldout, 1e-300):.3f} with it)"
                    if left_out is not None else ""))
         for name, (ratio, _, _) in [kv for kv in ranked if kv not in chosen]:
             n_par = _n_params(name, m.effects + (name,))
@@ -1411,15 +1371,13 @@ def _carried_over(m: GreyBox, name: str, prev: PositionFitResult) -> GreyBox:
     return m.copy(plant=p, effects=effects)
 
 
-def _heldout_position_sse(model: GreyBox, prep: Prepared, b: Bounds, budget_iter: int,
-                          output: bool = False) -> float:
-    """Held-out position error of ``model``: fitted on each fold, scored on the other
-    (``output``: with the freedom an output effect is judged with, :func:`_eval_output_params`)."""
+def _heldout_position_sse(model: GreyBox, prep: Prepared, b: Bounds, budget_iter: int
+                          ) -> float:
+    """Held-out position error of ``model``: fitted on each fold, scored on the other."""
     total = 0.0
     for k in (0, 1):
         train = prep.folds != k
-        params = _eval_output_params(model, b, None) if output else _eval_params(model, b)
-        res = PositionFit(prep, params, train).run(model, max_iter=budget_iter)
+        res = PositionFit(prep, _eval_params(model, b), train).run(model, max_iter=budget_iter)
         total += _position_sse(res.y, prep, ~train)
     return total
 
@@ -1434,25 +1392,18 @@ def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: Searc
     Stribeck hump until the hump is in). Each effect no other one requires is taken out
     and the model refitted on each fold: when the held-out error rises by less than the gain
     the effect would need to be added (:meth:`SearchSettings.required`), it is redundant.
-    Returns the least useful such effect and its ``-ln`` held-out gain. An output effect is
-    judged as it was added, with the forces held (:func:`_eval_output_params`).
+    Returns the least useful such effect and its ``-ln`` held-out gain.
     """
     effects = model.effects
     if len(effects) < 2:
         return None
     with_sse = _heldout_position_sse(model, prep, b, budget_iter)
-    with_output: float | None = None
     worst: tuple[str, float] | None = None
     for name in effects:
         if any(name in get_effect(o).requires for o in effects if o != name):
             continue
-        output = get_effect(name).kind == "output"
-        if output and with_output is None:
-            with_output = _heldout_position_sse(model, prep, b, budget_iter, output=True)
-        without_sse = _heldout_position_sse(model.without(name), prep, b, budget_iter,
-                                            output=output)
-        ref = with_output if output and with_output is not None else with_sse
-        gain = -math.log(max(ref, 1e-300) / max(without_sse, 1e-300))
+        without_sse = _heldout_position_sse(model.without(name), prep, b, budget_iter)
+        gain = -math.log(max(with_sse, 1e-300) / max(without_sse, 1e-300))
         need = settings.required(_n_params(name, effects), name, "position")
         log(f"    without {name:28s} held-out position error x{math.exp(gain):.3f} "
             f"(needs x{math.exp(need):.3f})")
