@@ -84,6 +84,12 @@ def force_scale(u: np.ndarray, ts: float) -> float:
     return float(max(np.percentile(np.abs(uf), 99), 1e-12))
 
 
+def reference_acceleration(prep: Prepared) -> float:
+    """The reference's largest acceleration (absolute), m/s^2 or rad/s^2: the motion's
+    inertial force per unit mass, the run's smallest force scale."""
+    return float(np.max(np.abs(prep.inputs.ar)))
+
+
 def starting_controllers(ts: float) -> list[CascadeController]:
     """Standard starting loops: velocity bandwidths of 8, 25 and 60 % of the sampling rate,
     position gain 8 or 30 % of it, with and without integral action and feedforward."""
@@ -147,7 +153,7 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y)) else np.inf
                     for y, s in zip(ys, status, strict=True)])
     order = np.argsort(sse)[:n_best]
-    f0 = max(float(np.max(np.abs(prep.inputs.ar))), 1e-6)
+    f0 = max(reference_acceleration(prep), 1e-6)
     b0 = Bounds(force=f0, stroke=max(prep.stroke, 1e-9), v_max=max(prep.v_max, 1e-9),
                 duration=prep.duration, ts=prep.ts, noise=prep.noise.rms,
                 loop_ts=prep.inputs.loop_ts, rotary=prep.rotary)
@@ -254,7 +260,7 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     second search fits a limit 42 % low at 0.40 times its squared error, so it does not run
     once a limit is kept).
     """
-    a_ref = float(np.max(np.abs(prep.inputs.ar)))
+    a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None
     motion = [(f_fc, f_lim) for f_fc in LIMIT_START_FRICTION for f_lim in LIMIT_START_LEVEL]
@@ -629,7 +635,7 @@ def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
     scale itself moved them too, and a Stribeck friction present was lost from them).
     """
     fit = friction_aware_fit(linear, prep, bounds)
-    a_ref = float(np.max(np.abs(prep.inputs.ar)))
+    a_ref = reference_acceleration(prep)
     if 0.0 < SCALE_SPREAD * a_ref < bounds.force:
         motion = replace(bounds, force=a_ref)
         other = friction_aware_fit(linear, prep, motion)

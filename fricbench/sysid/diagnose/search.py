@@ -714,8 +714,6 @@ QUANTUM_MULTIPLES = (1, 2, 3, 4)
 """The multiples of the sensor quantum a period is compared with."""
 
 
-
-
 def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
              w: np.ndarray | None = None) -> str | None:
     """Why the fitted effect ``name`` of ``model`` is a sensor or fit artefact, or None.
