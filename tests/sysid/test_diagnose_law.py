@@ -163,3 +163,48 @@ def test_a_drives_command_delay_is_found_from_the_motion(tmp_path) -> None:
     assert sse[0] < 0.8 * sse[1], sse
     with pytest.raises(ValueError, match="delay=-1"):
         InverseDynamics(prep, prep.u, delay=-1)
+
+
+@pytest.mark.parametrize("seed", [113, 114])
+def test_a_cascade_law_yields_its_gains_and_is_the_same_law_clamped(seed: int,
+                                                                      tmp_path) -> None:
+    """A cascade's law fitted with an exact integrator is, while nothing clips, the PID
+    ``P = D (k_p + k_i)``, ``I = D k_p k_i`` with velocity feedforward: :meth:`pid_terms`
+    gives the drive's gains back, :meth:`cascade_integral_rates` its position gain and
+    integral rate as the roots they are (sum ``P / D``, product ``I / D``), and the law run
+    clamped as either cascade is the velocity form's law until the drive clips."""
+    from dataclasses import replace
+
+    from fricbench.sysid.diagnose.controllers import ArxController
+
+    case, prep = _case("cascade", seed, tmp_path)
+    c = case.ctrl
+    assert np.isfinite(c.ti)
+    inp = prep.inputs
+    # through the narrowest prefilter: the log's own noise biases the unfiltered law's
+    # derivative taps (see fit_law)
+    law = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
+                             integrator=True, prefilter_hz=LAW_PREFILTERS[-1] * 0.5 / prep.ts)
+    i_gain, p_gain, d_gain, kvff = law.pid_terms(prep.ts)
+    # the effort is the current command (A): D = k_v, P = k_v (k_p + k_i), I = k_v k_p k_i
+    assert d_gain == pytest.approx(c.kv, rel=0.1)
+    assert p_gain == pytest.approx(c.kv * (c.kp + 1.0 / c.ti), rel=0.1)
+    assert i_gain == pytest.approx(c.kv * c.kp / c.ti, rel=0.1)
+    assert kvff == pytest.approx(c.kvff, abs=0.05)
+    rates = law.cascade_integral_rates(prep.ts)
+    assert len(rates) == 2 and 0.0 < rates[0] <= rates[1]
+    assert sum(rates) == pytest.approx(p_gain / d_gain, rel=1e-9)
+    assert rates[0] * rates[1] == pytest.approx(i_gain / d_gain, rel=1e-9)
+    p = _true_plant(case)
+    p[CL.I_IMAX] = 1e6 * float(np.max(np.abs(prep.u)))  # never reached
+    laws = [law] + [replace(law, clamped=True, velocity_ki=ki) for ki in rates]
+    ys = [simulate_position(GreyBox(lw, p, effects=("coulomb_friction",)), prep)[0]
+          for lw in laws]
+    for y in ys[1:]:
+        assert np.all(np.isfinite(y))
+        assert float(np.sqrt(np.mean((ys[0] - y) ** 2))) < 0.05 * case.floor
+    with pytest.raises(ValueError, match="velocity_ki=1.0 with clamped=False"):
+        ArxController(a=law.a, b=law.b, c=law.c, lead=law.lead, velocity_ki=1.0)
+    with pytest.raises(ValueError, match="velocity_ki=-1.0"):
+        ArxController(a=law.a, b=law.b, c=law.c, lead=law.lead, clamped=True,
+                      velocity_ki=-1.0)

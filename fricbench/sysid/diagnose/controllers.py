@@ -333,6 +333,11 @@ class ArxController:
         its clipped output (the velocity form of :meth:`arx`). Which one a drive does is not
         in its unclipped samples: :func:`~fricbench.sysid.diagnose.baselines.fit_law` chooses
         by the simulated position.
+    velocity_ki : float
+        With ``clamped``: the integral rate ``k_i`` (1/s) of a cascade's velocity PI. Such a
+        drive integrates the velocity error ``k_p e + de/dt`` (``e`` the position error), so
+        the integral it holds while clipping carries a share ``D k_i e`` of the proportional
+        action as well (:meth:`cascade_integral_rates`). 0: a PID's integral of ``e`` alone.
     """
 
     a: np.ndarray
@@ -342,11 +347,18 @@ class ArxController:
     relerr_pct: float = field(default=0.0)
     prefilter_hz: float | None = None
     clamped: bool = False
+    velocity_ki: float = 0.0
 
     def __post_init__(self) -> None:
         if self.clamped and not self.has_integrator:
             raise ValueError(f"clamped=True with a={self.a.tolist()!r}: a clamped law needs "
                              "an exact integrator (recursion coefficients summing to 1)")
+        if not (math.isfinite(self.velocity_ki) and self.velocity_ki >= 0.0):
+            raise ValueError(f"velocity_ki={self.velocity_ki!r}: expected a finite rate >= 0, "
+                             "1/s")
+        if self.velocity_ki > 0.0 and not self.clamped:
+            raise ValueError(f"velocity_ki={self.velocity_ki!r} with clamped=False: the "
+                             "integral's rate only matters to a law run clamped")
 
     @property
     def has_integrator(self) -> bool:
@@ -375,15 +387,13 @@ class ArxController:
         u_init = np.full(max(self.a.shape[0], 1), inp.u0)[: self.a.shape[0]]
         return self.a, self.c, r, u_init, inp.history(max(self.c.shape[0], 1))
 
-    def positional(self, inp: LoopInputs) -> PositionalLaw:
-        """The law in positional form with its integral as a state, for a drive that clips.
+    def _integral_split(self) -> tuple[float, float, np.ndarray, np.ndarray]:
+        """``(p, alpha, b_rest, c_rest)``: the law split into an integral and the rest.
 
         With the recursion ``A(z) = (1 - z^-1)(1 - p z^-1)`` (``p = 0`` for one coefficient),
         each input's taps ``N(z)`` split into ``alpha z^-1 / (1 - z^-1) + N'(z) / (1 - p
-        z^-1)`` with ``alpha = N(1) / (1 - p)``: the integral's increment is ``g[k] = alpha
-        (x_r[k] - x[k])`` (the taps of a servo law sum to 0 over both inputs), the
-        proportional part ``q`` recurses on ``p`` with the taps ``N'``. Unclipped, the law is
-        :meth:`arx`'s; the run is taken to start in the steady state of its first samples.
+        z^-1)`` with ``alpha = N(1) / (1 - p)``; the taps of a servo law sum to 0 over both
+        inputs, so ``alpha`` is the reference's and ``-alpha`` the position's.
         """
         if not self.has_integrator:
             raise ValueError(f"a={self.a.tolist()!r}: the positional form needs an exact "
@@ -401,23 +411,89 @@ class ArxController:
         bb = np.concatenate([self.b, np.zeros(2)])
         bb[self.lead + 1] -= alpha
         bb[self.lead + 2] += alpha * p
-        b_rest = rest(bb)
         # position taps from z^0 down, alpha_N = -alpha
         cc = np.concatenate([self.c, np.zeros(max(0, 3 - self.c.shape[0]) + 1)])
         cc[1] += alpha
         cc[2] -= alpha * p
-        c_rest = rest(cc)
+        return p, alpha, rest(bb), rest(cc)
+
+    def pid_terms(self, ts: float) -> tuple[float, float, float, float]:
+        """``(I, P, D, kvff)``: the law near zero frequency as a PID with velocity feedforward.
+
+        ``u ~ P e + D (kvff v_r - v) + I int(e)`` (``e = x_r - x``): ``I`` (effort per m s)
+        from the integral's share ``alpha = I ts``, ``P`` and ``D`` from the rest of the
+        position taps ``N'(z) / (1 - p z^-1)`` expanded in ``w = 1 - z^-1`` (``P`` the value
+        at ``w = 0``, ``D / ts`` the slope), ``kvff`` the reference taps' slope over the
+        position's. Needs an exact integrator.
+        """
+        p, alpha, b_rest, c_rest = self._integral_split()
+
+        def value_and_slope(taps: np.ndarray, first_power: int) -> tuple[float, float]:
+            # sum_j t_j z^-(j + first_power) / (1 - p z^-1) with z^-1 = 1 - w, to first order
+            powers = np.arange(taps.shape[0]) + first_power
+            s0, s1 = float(np.sum(taps)), float(np.sum(powers * taps))
+            return s0 / (1.0 - p), -(s1 / (1.0 - p) + s0 * p / (1.0 - p) ** 2)
+
+        p_x, d_x = value_and_slope(-c_rest, 0)
+        _, d_r = value_and_slope(b_rest, -self.lead)
+        kvff = d_r / d_x if d_x != 0.0 else 0.0
+        return alpha / ts, p_x, d_x * ts, kvff
+
+    def cascade_integral_rates(self, ts: float) -> tuple[float, ...]:
+        """The velocity-PI integral rates ``k_i`` (1/s) of the cascades this law can be.
+
+        A cascade ``u = D (k_p e + de/dt) + D k_i int(k_p e + de/dt)`` is, unclipped, the PID
+        of :meth:`pid_terms` with ``P = D (k_p + k_i)`` and ``I = D k_p k_i``: ``k_p`` and
+        ``k_i`` are the two roots of ``s^2 - (P / D) s + I / D``, interchangeable, and which
+        one the drive integrates with only shows while it clips. Both roots, smaller first;
+        none when they are not real and positive (a PID that no cascade is).
+        """
+        i_gain, p_gain, d_gain, _ = self.pid_terms(ts)
+        if not (i_gain > 0.0 and p_gain > 0.0 and d_gain > 0.0):
+            return ()
+        s, prod = p_gain / d_gain, i_gain / d_gain
+        disc = s * s - 4.0 * prod
+        if not (math.isfinite(disc) and disc >= 0.0):
+            return ()
+        root = math.sqrt(disc)
+        return (0.5 * (s - root), 0.5 * (s + root))
+
+    def positional(self, inp: LoopInputs) -> PositionalLaw:
+        """The law in positional form with its integral as a state, for a drive that clips.
+
+        The integral of :meth:`_integral_split`, ``alpha z^-1 / (1 - z^-1)``, runs as a state
+        ``I[k+1] = I[k] + g[k]``; the rest ``q`` recurses on ``p``. A PID integrates the
+        position error, ``g[k] = alpha e[k]``. A cascade (``velocity_ki`` > 0) integrates its
+        velocity error, so ``g[k] = alpha e[k] + beta (kvff (x_r[k] - x_r[k-1]) - (x[k] -
+        x[k-1]))`` with ``beta = D k_i`` (:meth:`pid_terms`), and ``q`` gives that share of the
+        proportional action back. Unclipped, either is :meth:`arx`'s law; the run is taken to
+        start in the steady state of its first samples.
+        """
+        p, alpha, b_rest, c_rest = self._integral_split()
+        beta, kvff = 0.0, 0.0
+        if self.velocity_ki > 0.0:
+            _, _, d_gain, kvff = self.pid_terms(inp.ts)
+            beta = d_gain * self.velocity_ki
+            # the integral's beta z^-1 (1 - p z^-1) / (1 - p z^-1) leaves the rest
+            b_rest = b_rest.copy()
+            b_rest[self.lead + 1] -= beta * kvff
+            b_rest[self.lead + 2] += beta * kvff * p
+            c_rest = c_rest.copy()
+            c_rest[1] += beta
+            c_rest[2] -= beta * p
         q_law = ArxController(a=np.array([p]), b=b_rest, c=c_rest, lead=self.lead)
         r = q_law.reference_part(inp.xr, inp.vr, inp.ts)
         y_init = inp.history(max(c_rest.shape[0], 1))
-        q_init, i_init = self._positional_start(inp, q_law, r, alpha)
-        r2 = alpha * inp.xr
+        xr_prev = np.concatenate(([inp.xr[0] - inp.vr[0] * inp.ts], inp.xr[:-1]))
+        r2 = alpha * inp.xr + beta * kvff * (inp.xr - xr_prev)
+        c2 = np.array([-(alpha + beta), beta]) if beta != 0.0 else np.array([-alpha])
+        q_init, i_init = self._positional_start(inp, q_law, r, r2, c2)
         return PositionalLaw(a=np.array([p]), c=c_rest, r=r, q_init=np.array([q_init]),
-                             a2=np.array([0.0]), c2=np.array([-alpha]), r2=r2,
+                             a2=np.array([0.0]), c2=c2, r2=r2,
                              g_init=np.array([0.0]), i_init=i_init, y_init=y_init)
 
     def _positional_start(self, inp: LoopInputs, q_law: ArxController, r_q: np.ndarray,
-                          alpha: float) -> tuple[float, float]:
+                          r2: np.ndarray, c2: np.ndarray) -> tuple[float, float]:
         """``(q[-1], I[0])`` that make the positional form's first two commands those of the
         velocity form started as :meth:`arx` starts it; both recursions agree from there on
         (they share the second-order recursion and its two latest values). The commands are
@@ -447,7 +523,7 @@ class ArxController:
                 q_prev = p * q_prev + r_q[k] + sum(float(cj) * pos(k, j)
                                                    for j, cj in enumerate(q_law.c))
                 out.append(u_v[k] - (q_prev + integral))
-                integral += alpha * (inp.xr[k] - pos(k, 0))
+                integral += r2[k] + sum(float(cj) * pos(k, j) for j, cj in enumerate(c2))
             return np.array(out)
 
         d0 = mismatch(0.0, 0.0)
@@ -477,6 +553,8 @@ class ArxController:
             out["prefilter_hz"] = self.prefilter_hz
         if self.clamped:
             out["anti_windup"] = "clamped integral (positional form) when the drive clips"
+            if self.velocity_ki > 0.0:
+                out["velocity_ki_1_s"] = self.velocity_ki
         return out
 
 
