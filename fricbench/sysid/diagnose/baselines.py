@@ -4,6 +4,7 @@ loop (controller + mass with viscous damping) and the linear inverse dynamics.""
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -33,7 +34,7 @@ from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 
 __all__ = ["LinearTF", "fit_law", "fit_law_like", "law_relerr_floor", "LAW_PREFILTERS",
-           "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort", "effort_delay",
+           "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort", "fit_law_and_delay",
            "force_scale", "starting_controllers", "friction_aware_loop",
            "friction_aware_fit_scaled", "FRICTION_RAISE"]
 
@@ -341,14 +342,13 @@ LAW_PREFILTERS = (None, 1 / 4, 1 / 8, 1 / 16, 1 / 32)
 def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxController:
     """The run's control law from its logged effort (clipped samples left out).
 
-    One least-squares law per prefilter of :data:`LAW_PREFILTERS`
-    (:func:`~fricbench.sysid.diagnose.controllers.fit_arx_controller`). The one kept is the
-    law whose loop, closed around the run's own inverse-dynamics plant (mass, damping and a
-    Coulomb force fitted to the effort, never to the position), reproduces the measured
-    position best: the next-effort error cannot choose, because the noise of a logged
-    position that is not the controller's own feedback biases exactly the laws that predict
-    the next effort best. The choice is among a handful of fits, not a fit of the law to the
-    position, so no effect can be absorbed into it.
+    Of the laws of :func:`law_candidates`, the one kept is the law whose loop, closed around
+    the run's own inverse-dynamics plant (mass, damping and a Coulomb force fitted to the
+    effort, never to the position, under ``idim``'s delay), reproduces the measured position
+    best: the next-effort error cannot choose, because the noise of a logged position that is
+    not the controller's own feedback biases exactly the laws that predict the next effort
+    best. The choice is among a handful of fits, not a fit of the law to the position, so no
+    effect can be absorbed into it.
 
     Parameters
     ----------
@@ -363,6 +363,33 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     """
     if prep.u is None:
         raise ValueError("fit_law: the run has no effort column")
+    laws = law_candidates(prep)
+    if len(laws) == 1:
+        return laws[0]
+    idim = idim if idim is not None else InverseDynamics(prep, prep.u)
+    sse, _ = _law_errors(prep, laws, idim)
+    if not np.any(np.isfinite(sse)):
+        return laws[0]
+    return laws[int(np.argmin(sse))]
+
+
+def law_candidates(prep: Prepared) -> list[ArxController]:
+    """The laws a run's effort is fitted to, among which its motion chooses.
+
+    One least-squares law per prefilter of :data:`LAW_PREFILTERS`
+    (:func:`~fricbench.sysid.diagnose.controllers.fit_arx_controller`). When the effort clips,
+    each also with an exact integrator run clamped, as a PID's integral of the position error
+    and as the two cascades it can be (a velocity PI integrating the velocity error,
+    :meth:`~fricbench.sysid.diagnose.controllers.ArxController.cascade_integral_rates`):
+    the unclipped samples cannot tell these apart, the motion after a clip can.
+
+    Raises
+    ------
+    ValueError
+        The run has no effort.
+    """
+    if prep.u is None:
+        raise ValueError("law_candidates: the run has no effort column")
     nyquist = 0.5 / prep.ts
     # a drive that clips either recurses on its clipped command (velocity form) or holds its
     # integral (positional form, clamped): its unclipped samples cannot tell, its motion can
@@ -371,23 +398,40 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     for frac in LAW_PREFILTERS:
         for clamped in forms:
             try:
-                laws.append(_law_through(prep, None if frac is None else frac * nyquist,
-                                         clamped=clamped))
+                law = _law_through(prep, None if frac is None else frac * nyquist,
+                                   clamped=clamped)
             except (ValueError, np.linalg.LinAlgError):
                 continue
-    if len(laws) == 1:
-        return laws[0]
-    idim = idim if idim is not None else InverseDynamics(prep, prep.u)
+            laws.append(law)
+            if clamped:
+                # a cascade's drive holds the integral of its velocity error (on the second
+                # simulator's thermal/21, the PID's clamp left 12.9 um with the true delay,
+                # the cascade's 2.8, the velocity form 7.7)
+                laws += [replace(law, velocity_ki=ki)
+                         for ki in law.cascade_integral_rates(prep.ts)]
+    return laws
+
+
+def _law_errors(prep: Prepared, laws: Sequence[ArxController], idim: InverseDynamics
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Squared free-run position errors of each law closed around ``idim``'s plant (mass,
+    damping and a Coulomb force fitted to the effort, under its delay, clipping where the
+    effort clips): over the whole run, and after its first tenth (inf for a run that fails)."""
     p = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    p[CL.I_DELAY] = idim.delay
     if prep.saturation is not None:
         p[CL.I_IMAX] = prep.saturation.level
-    models = [GreyBox(law, p, effects=("coulomb_friction",)) for law in laws]
-    ys, _, status = simulate_models(models, prep)
-    sse = np.array([float(np.sum((prep.x - y) ** 2)) if s == 0 and np.all(np.isfinite(y))
-                    else np.inf for y, s in zip(ys, status, strict=True)])
-    if not np.any(np.isfinite(sse)):
-        return laws[0]
-    return laws[int(np.argmin(sse))]
+    ys, _, status = simulate_models([GreyBox(law, p, effects=("coulomb_friction",))
+                                     for law in laws], prep)
+    # the late error: the free run starts from a state estimated at the record's edge, and a
+    # one-sample shift of the effort can absorb that transient (see fit_law_and_delay)
+    k0 = prep.x.shape[0] // 10
+    whole, late = np.full(len(laws), np.inf), np.full(len(laws), np.inf)
+    for i, (y, s) in enumerate(zip(ys, status, strict=True)):
+        if s == 0 and np.all(np.isfinite(y)):
+            whole[i] = float(np.sum((prep.x - y) ** 2))
+            late[i] = float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
+    return whole, late
 
 
 def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
@@ -404,7 +448,14 @@ def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
     f = like.prefilter_hz
     if f is not None and not f < 0.5 / prep.ts:
         f = None
-    return _law_through(prep, f, clamped=like.clamped)
+    law = _law_through(prep, f, clamped=like.clamped)
+    if like.velocity_ki > 0.0:
+        # the same anti-windup: the cascade whose integral rate is nearest like's
+        rates = law.cascade_integral_rates(prep.ts)
+        if rates:
+            law = replace(law, velocity_ki=min(
+                rates, key=lambda ki: abs(math.log(ki / like.velocity_ki))))
+    return law
 
 
 def law_relerr_floor(prep: Prepared) -> float:
@@ -431,51 +482,48 @@ DELAY_GAIN = 0.8
 less than this share of the squared position error the loop without it leaves."""
 
 
-def effort_delay(prep: Prepared, law: ArxController, idim: InverseDynamics
-                 ) -> InverseDynamics:
-    """The effort's regression under the drive's command delay, chosen by the motion.
+def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
+                      ) -> tuple[ArxController, InverseDynamics]:
+    """The run's control law and the drive's command delay, chosen together by the motion.
 
     The logged effort is the drive's command; its power stage may apply it some samples later
     (:func:`~.equation_error.delay_steps`: up to 3 ms, at the log's rate only). The inverse
     dynamics does not see that shift (its mass and damping bend to it), the free run does: for
-    each delay the plant is refitted to the effort shifted by it, the loop is closed with
-    ``law`` and a Coulomb force, and the delay whose position error is least is kept when it
+    each delay the plant is refitted to the effort shifted by it, and each law of
+    :func:`law_candidates` is closed around it with a Coulomb force (:func:`fit_law`'s choice,
+    under that delay). The delay whose best law leaves the least position error is kept when it
     is clearly better (:data:`DELAY_GAIN`) than none. On the second simulator's thermal/21 (a
     cascade with a 3-sample delay, its current logged) the loop without a delay left 14.6 um,
-    with it 7.3 um. A handful of choices, each refitted to the effort: nothing else the
-    position shows can hide in it.
+    with it 7.3 um. The two are chosen together because each bends to the other: there, the
+    law chosen without a delay (a cascade's clamp of the wrong integral rate) took 2 samples
+    of delay and left 6.3 um, where the true delay with the law it favours leaves 2.7. A
+    handful of choices, each refitted to the effort: nothing else the position shows can hide
+    in them.
 
     Returns
     -------
-    InverseDynamics
+    law : ArxController
+    idim : InverseDynamics
         ``idim`` when no delay is kept, else the regression of the shifted effort.
     """
     assert prep.u is not None
+    laws = law_candidates(prep)
     delays = delay_steps(prep.inputs.ts) if prep.inputs.n_loop == 1 else (0,)
-    if len(delays) < 2:
-        return idim
     cands = [idim] + [InverseDynamics(prep, prep.u, idim.label, delay=d)
                       for d in delays if d > 0]
-    models = []
+    best_law, late = [], []
     for cand in cands:
-        p = cand.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
-        p[CL.I_DELAY] = cand.delay
-        if prep.saturation is not None:
-            p[CL.I_IMAX] = prep.saturation.level
-        models.append(GreyBox(law, p, effects=("coulomb_friction",)))
-    ys, _, status = simulate_models(models, prep)
-    # judged after the first tenth of the run: the free run starts from a state estimated at
-    # the record's edge, and a one-sample shift of the effort can absorb that transient (a PD
-    # loop started moving, no delay in it: 0.71 x the error of none over the whole run, 1.3 x
-    # after its first tenth); a drive's delay acts over the whole run
-    k0 = prep.x.shape[0] // 10
-    sse = np.array([float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
-                    if s == 0 and np.all(np.isfinite(y)) else np.inf
-                    for y, s in zip(ys, status, strict=True)])
-    best = int(np.argmin(sse))
-    if best > 0 and np.isfinite(sse[best]) and sse[best] < DELAY_GAIN * sse[0]:
-        return cands[best]
-    return idim
+        whole, after = _law_errors(prep, laws, cand)
+        i = int(np.argmin(whole)) if np.any(np.isfinite(whole)) else 0
+        best_law.append(laws[i])
+        # judged after the first tenth of the run: a PD loop started moving, no delay in it,
+        # left 0.71 x the error of none over the whole run with a one-sample shift, 1.3 x
+        # after its first tenth; a drive's delay acts over the whole run
+        late.append(after[i])
+    best = int(np.argmin(late))
+    if best > 0 and np.isfinite(late[best]) and late[best] < DELAY_GAIN * late[0]:
+        return best_law[best], cands[best]
+    return best_law[0], idim
 
 
 def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bounds, float]:
@@ -495,8 +543,7 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
     if prep.u is None:
         raise ValueError("fit_linear_with_effort: the run has no effort column")
     idim = InverseDynamics(prep, prep.u)
-    ctrl = fit_law(prep, idim)
-    idim = effort_delay(prep, ctrl, idim)
+    ctrl, idim = fit_law_and_delay(prep, idim)
     p = idim.fit((), CL.default_plant(1.0, 0.0))
     p[CL.I_DELAY] = idim.delay
     if prep.saturation is not None:

@@ -432,7 +432,10 @@ class _ModeFit:
 def _clamped_words(ctrl: ArxController | CascadeController) -> str:
     """What the report adds to a law that holds its integral while the drive clips."""
     if isinstance(ctrl, ArxController) and ctrl.clamped:
-        return ("; run with its integral held while the drive clips (clamping anti-windup), "
+        held = ("the integral of a velocity PI (a cascade's: integral rate "
+                f"{ctrl.velocity_ki:.4g} 1/s)" if ctrl.velocity_ki > 0.0
+                else "its integral of the position error (a PID's)")
+        return (f"; run with {held} held while the drive clips (clamping anti-windup), "
                 "which reproduced the motion better than a law recursing on its clipped "
                 "command")
     return ""
