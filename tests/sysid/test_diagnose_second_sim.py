@@ -540,6 +540,18 @@ def test_friction_varying_along_one_pass_is_fitted_with_its_coulomb_level(
     assert report["position"]["rms_after"] < 0.1 * report["position"]["rms_before"]
 
 
+def _clamped_effort_report(case: S.Case, tmp_path: object) -> dict:
+    """The case's report, diagnosed right with the effort's law run clamped."""
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None
+    assert report["data"]["mode"] == "effort"
+    assert "clamping anti-windup" in report["controller_laws"]["train"]
+    assert "anti_windup" in report["linear_model"]["model"]["controller"]
+    return report
+
+
 def test_a_clipping_pid_law_holds_its_integral(tmp_path: object) -> None:
     """thermal/18 of the sweep: a 1 kHz PID without feedforward whose command (logged in %)
     clips on 4.5 % of the samples, against a Coulomb friction of 77 % of the limit. The drive
@@ -550,13 +562,7 @@ def test_a_clipping_pid_law_holds_its_integral(tmp_path: object) -> None:
     case = S.draw_case("thermal", 18)
     assert case.variant.effort == "%" and case.variant.law == "pid"
     assert 0.02 < float(case.trace.clipped.mean()) < 0.1
-    outcome = C.diagnose_case(case, str(tmp_path))
-    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
-    report = outcome.report
-    assert report is not None
-    assert report["data"]["mode"] == "effort"
-    assert "clamping anti-windup" in report["controller_laws"]["train"]
-    assert "anti_windup" in report["linear_model"]["model"]["controller"]
+    report = _clamped_effort_report(case, tmp_path)
     # the best before: 2.5 mrad, from the position alone with the law set aside
     assert report["position"]["rms_after"] < 1e-3
     step = report["steps"][report["effects"].index("thermal_drift")]
@@ -574,11 +580,7 @@ def test_a_clipping_cascade_holds_its_velocity_integral(tmp_path: object) -> Non
     the drift is named, its growth within a factor 1.5."""
     case = S.draw_case("thermal", 21)
     assert case.variant.law == "cascade" and case.variant.saturate and case.ctrl.delay == 3
-    outcome = C.diagnose_case(case, str(tmp_path))
-    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
-    report = outcome.report
-    assert report is not None
-    assert report["data"]["mode"] == "effort"
+    report = _clamped_effort_report(case, tmp_path)
     assert "a cascade's: integral rate" in report["controller_laws"]["train"]
     assert "velocity_ki_1_s" in report["linear_model"]["model"]["controller"]
     assert "3 loop periods" in report["controller_laws"]["train"]

@@ -361,9 +361,8 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     ValueError
         The run has no effort.
     """
-    if prep.u is None:
-        raise ValueError("fit_law: the run has no effort column")
-    laws = law_candidates(prep)
+    laws = law_candidates(prep)  # raises without an effort
+    assert prep.u is not None
     if len(laws) == 1:
         return laws[0]
     idim = idim if idim is not None else InverseDynamics(prep, prep.u)
@@ -389,7 +388,7 @@ def law_candidates(prep: Prepared) -> list[ArxController]:
         The run has no effort.
     """
     if prep.u is None:
-        raise ValueError("law_candidates: the run has no effort column")
+        raise ValueError("the run has no effort column: no control law to fit")
     nyquist = 0.5 / prep.ts
     # a drive that clips either recurses on its clipped command (velocity form) or holds its
     # integral (positional form, clamped): its unclipped samples cannot tell, its motion can
