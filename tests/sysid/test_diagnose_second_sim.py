@@ -589,28 +589,6 @@ def test_a_clipping_cascade_holds_its_velocity_integral(tmp_path: object) -> Non
     assert 1 / 1.5 < growth / case.plant.thermal_growth < 1.5, (growth, case.plant.thermal_growth)
 
 
-def test_a_stribeck_friction_does_not_pass_for_a_command_delay(tmp_path: object) -> None:
-    """stribeck/19 of the sweep: a 1 kHz cascade without delay, its current logged and clipping,
-    breakaway 27 % above the Coulomb level. The law and the command delay were chosen on a
-    plant with Coulomb friction alone, whose loop ran best 2 samples late; under that delay
-    the Stribeck friction the effort showed (x0.03 held out) made the free run worse and was
-    rejected, and the position's diagnosis won with a false backlash. The trial plants now
-    also carry the Stribeck friction fitted to the effort: no delay is taken, the Stribeck
-    friction is named from the effort, and nothing else."""
-    case = S.draw_case("stribeck", 19)
-    assert case.ctrl.delay == 0 and case.variant.saturate and case.variant.effort == "A"
-    outcome = C.diagnose_case(case, str(tmp_path))
-    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
-    report = outcome.report
-    assert report is not None
-    assert report["data"]["mode"] == "effort"
-    assert set(report["effects"]) == {"coulomb_friction", "stribeck_friction"}
-    assert "loop period" not in report["controller_laws"]["train"]
-    step = report["steps"][report["effects"].index("stribeck_friction")]
-    excess = (case.plant.breakaway - case.plant.coulomb) / case.ctrl.kt
-    assert step["parameters"]["fs_minus_fc_A"] == pytest.approx(excess, rel=0.2)
-
-
 @pytest.mark.parametrize("seed", [12, 26])
 def test_a_backlash_between_two_bodies_is_found(seed: int, tmp_path: object) -> None:
     """A PID on the motor's encoder at 1 kHz, logged at 100 Hz, the table across a gap (the

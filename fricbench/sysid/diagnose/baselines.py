@@ -22,7 +22,6 @@ from fricbench.sysid.diagnose.models import (
     Bounds,
     GreyBox,
     InverseDynamics,
-    NoStartError,
     Param,
     PositionFit,
     PositionFitResult,
@@ -344,12 +343,12 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     """The run's control law from its logged effort (clipped samples left out).
 
     Of the laws of :func:`law_candidates`, the one kept is the law whose loop, closed around
-    the run's own inverse-dynamics plant (mass, damping and the friction of
-    :data:`LAW_FRICTION` fitted to the effort, never to the position, under ``idim``'s delay),
-    reproduces the measured position best: the next-effort error cannot choose, because the
-    noise of a logged position that is not the controller's own feedback biases exactly the
-    laws that predict the next effort best. The choice is among a handful of fits, not a fit
-    of the law to the position, so no effect can be absorbed into it.
+    the run's own inverse-dynamics plant (mass, damping and a Coulomb force fitted to the
+    effort, never to the position, under ``idim``'s delay), reproduces the measured position
+    best: the next-effort error cannot choose, because the noise of a logged position that is
+    not the controller's own feedback biases exactly the laws that predict the next effort
+    best. The choice is among a handful of fits, not a fit of the law to the position, so no
+    effect can be absorbed into it.
 
     Parameters
     ----------
@@ -412,47 +411,25 @@ def law_candidates(prep: Prepared) -> list[ArxController]:
     return laws
 
 
-LAW_FRICTION = (("coulomb_friction",), ("coulomb_friction", "stribeck_friction"))
-"""Friction the plant of a law's trial run is fitted with (to the effort, never to the position):
-Coulomb friction alone, and with Stribeck friction, each law keeping its better run. A Stribeck
-friction the effort shows but the trial plant lacks bends the choice of the delay: on the
-second simulator's stribeck/19 (a cascade without delay, its current logged) the loops with
-Coulomb friction alone ran best 2 samples late (4.6 um, 9.9 without a delay); with the Stribeck
-friction fitted to the effort (within 1 % of the truth) they ran best without one (2.2 um),
-where the search had rejected that Stribeck friction for making the delayed loop's free run
-worse (4.6 -> 19 um)."""
-
-
 def _law_errors(prep: Prepared, laws: Sequence[ArxController], idim: InverseDynamics
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Squared free-run position errors of each law closed around ``idim``'s plant (mass,
-    damping and the friction of :data:`LAW_FRICTION` fitted to the effort, under its delay,
-    clipping where the effort clips), the better of the frictions: over the whole run, and
-    after its first tenth (inf for a run that fails)."""
-    whole, late = np.full(len(laws), np.inf), np.full(len(laws), np.inf)
+    damping and a Coulomb force fitted to the effort, under its delay, clipping where the
+    effort clips): over the whole run, and after its first tenth (inf for a run that fails)."""
+    p = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    p[CL.I_DELAY] = idim.delay
+    if prep.saturation is not None:
+        p[CL.I_IMAX] = prep.saturation.level
+    ys, _, status = simulate_models([GreyBox(law, p, effects=("coulomb_friction",))
+                                     for law in laws], prep)
     # the late error: the free run starts from a state estimated at the record's edge, and a
     # one-sample shift of the effort can absorb that transient (see fit_law_and_delay)
     k0 = prep.x.shape[0] // 10
-    for effects in LAW_FRICTION:
-        try:
-            p = idim.fit(effects[:1], CL.default_plant(1.0, 0.0))
-            for i in range(2, len(effects) + 1):
-                # each further effect from its neutral start, as the search adds it
-                p = idim.fit(effects[:i], get_effect(effects[i - 1]).switched_on(p, prep),
-                             new=effects[i - 1])
-        except (NoStartError, ValueError, np.linalg.LinAlgError):
-            continue
-        p[CL.I_DELAY] = idim.delay
-        if prep.saturation is not None:
-            p[CL.I_IMAX] = prep.saturation.level
-        ys, _, status = simulate_models([GreyBox(law, p, effects=effects) for law in laws],
-                                        prep)
-        for i, (y, s) in enumerate(zip(ys, status, strict=True)):
-            if s == 0 and np.all(np.isfinite(y)):
-                sse = float(np.sum((prep.x - y) ** 2))
-                if sse < whole[i]:
-                    whole[i] = sse
-                    late[i] = float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
+    whole, late = np.full(len(laws), np.inf), np.full(len(laws), np.inf)
+    for i, (y, s) in enumerate(zip(ys, status, strict=True)):
+        if s == 0 and np.all(np.isfinite(y)):
+            whole[i] = float(np.sum((prep.x - y) ** 2))
+            late[i] = float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
     return whole, late
 
 
@@ -512,15 +489,15 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     (:func:`~.equation_error.delay_steps`: up to 3 ms, at the log's rate only). The inverse
     dynamics does not see that shift (its mass and damping bend to it), the free run does: for
     each delay the plant is refitted to the effort shifted by it, and each law of
-    :func:`law_candidates` is closed around it with the friction of :data:`LAW_FRICTION`
-    (:func:`fit_law`'s choice, under that delay). The delay whose best law leaves the least
-    position error is kept when it is clearly better (:data:`DELAY_GAIN`) than none. On the
-    second simulator's thermal/21 (a cascade with a 3-sample delay, its current logged) the
-    loop without a delay left 14.6 um, with it 7.3 um. The two are chosen together because
-    each bends to the other: there, the law chosen without a delay (a cascade's clamp of the
-    wrong integral rate) took 2 samples of delay and left 6.3 um, where the true delay with
-    the law it favours leaves 2.7. A handful of choices, each refitted to the effort: nothing
-    else the position shows can hide in them.
+    :func:`law_candidates` is closed around it with a Coulomb force (:func:`fit_law`'s choice,
+    under that delay). The delay whose best law leaves the least position error is kept when it
+    is clearly better (:data:`DELAY_GAIN`) than none. On the second simulator's thermal/21 (a
+    cascade with a 3-sample delay, its current logged) the loop without a delay left 14.6 um,
+    with it 7.3 um. The two are chosen together because each bends to the other: there, the
+    law chosen without a delay (a cascade's clamp of the wrong integral rate) took 2 samples
+    of delay and left 6.3 um, where the true delay with the law it favours leaves 2.7. A
+    handful of choices, each refitted to the effort: nothing else the position shows can hide
+    in them.
 
     Returns
     -------
