@@ -205,3 +205,17 @@ def test_raised_friction_bounds_widen_the_level_and_keep_the_starts(name: str, p
     effects = ("coulomb_friction",) if name == "coulomb_friction" else ("coulomb_friction", name)
     assert (effect.probes(p, effects, prep, BOUNDS, prep.x)
             == effect.probes(p, effects, prep, raised, prep.x))
+
+
+def test_a_stribeck_start_may_sit_well_below_the_coulomb_level() -> None:
+    """The clip of a Stribeck start keeps it visible (above zero) but not above the friction a
+    servo axis has: where the force scale (the largest command) is 50 times the Coulomb level
+    (a stiff loop on a light axis, stribeck/28 of the second simulator: Coulomb friction at
+    1.8 % of it, the stiction's excess at 0.9 %), a floor at 2 % of the force scale put every
+    start above the whole friction, and no fit of a few iterations came back from there."""
+    effect = get_effect("stribeck_friction")
+    for share in (0.005, 0.009, 0.05):
+        assert effect.clip(CL.I_FS, share * BOUNDS.force, BOUNDS) == pytest.approx(
+            share * BOUNDS.force)
+    assert effect.clip(CL.I_FS, 0.0, BOUNDS) > 0.0
+    assert effect.clip(CL.I_FS, -1.0, BOUNDS) > 0.0
