@@ -219,3 +219,28 @@ def test_a_stribeck_start_may_sit_well_below_the_coulomb_level() -> None:
             share * BOUNDS.force)
     assert effect.clip(CL.I_FS, 0.0, BOUNDS) > 0.0
     assert effect.clip(CL.I_FS, -1.0, BOUNDS) > 0.0
+
+
+@pytest.mark.parametrize("name", [n for n in effect_names() if get_effect(n).kind == "force"
+                                  and n != "coulomb_friction"])
+def test_the_screens_inverse_dynamics_start_holds_on_a_run_without_a_drive_limit(
+        name: str, prep) -> None:  # type: ignore[no-untyped-def]
+    """A model without a drive limit holds an infinite one in its plant row (``I_IMAX``): the
+    start the screen takes from the inverse dynamics of an effort must not be set aside for it
+    (it was, on every such run, from the one-plant redesign on). Its fitted entries are
+    finite; the limit stays infinite."""
+    from fricbench.sysid.diagnose.controllers import CascadeController
+    from fricbench.sysid.diagnose.models import GreyBox, InverseDynamics
+    from fricbench.sysid.diagnose.search import _idim_probe
+
+    p = CL.default_plant(1.0, 0.0)
+    p[CL.I_FC] = 0.1 * BOUNDS.force
+    assert math.isinf(p[CL.I_IMAX])
+    model = GreyBox(CascadeController(wv=300.0, kp=100.0, ki=20.0, kvff=1.0), p,
+                    ("coulomb_friction",))
+    probe = _idim_probe(model, name, prep, BOUNDS, InverseDynamics(prep, prep.u))
+    assert probe is not None and probe.ref is not None
+    assert probe.ref.effects == ("coulomb_friction", name)
+    ref = probe.ref.plant
+    assert all(math.isfinite(ref[i]) for i in get_effect(name).free(probe.ref.effects))
+    assert math.isinf(ref[CL.I_IMAX])

@@ -808,17 +808,13 @@ def _idim_probe(model: GreyBox, name: str, prep: Prepared, b: Bounds,
         q = idim.fit(m0.effects, m0.plant, new=name)
     except (ValueError, np.linalg.LinAlgError):
         return None
-    # the whole row is checked, so a model without a drive limit (I_IMAX = inf) never gets
-    # this start: since the one-plant redesign only runs whose drive clips have it. Checking
-    # only the fitted entries was swept over the second simulator: 150/168 right against 154,
-    # the cogging then taking a period from the noisy virtual effort and standing in for
-    # model mismatch (false on stribeck/10, 13, 16 and posdep/19). Left as it is until
-    # periodic starts are judged more strictly
-    if not np.all(np.isfinite(q)) or q[CL.I_M] <= 0.0:
-        return None
     effect = get_effect(name)
-    p = m0.plant.copy()
     idx = effect.free(m0.effects)
+    # only the entries the regression fitted: a row without a drive limit holds an infinite
+    # one (I_IMAX), and checking the whole row denied this start to every such run
+    if not np.all(np.isfinite(q[[CL.I_M, *idx]])) or q[CL.I_M] <= 0.0:
+        return None
+    p = m0.plant.copy()
     for i in idx:
         # the virtual effort's mass is not exactly the model's unit mass: rescale forces
         p[i] = q[i] / q[CL.I_M] if i in effect.force_parameters else q[i]
@@ -982,7 +978,11 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
     key = hash(m.controller) if isinstance(m.controller, CascadeController) else 0
     idim_v = InverseDynamics(prep, cascade_effort(m.controller, prep), f"virtual-{tag}-{key}")
     for name in _available(m, prep, settings):
-        if get_effect(name).kind == "force":
+        # not for a periodic force: the regression always finds a best period in the noisy
+        # virtual effort, and a cogging started there stood in for model mismatch (second
+        # simulator: false on stribeck/10, 13, 16 and posdep/19; 150/168 right with it, 155
+        # without it, 154 with no inverse-dynamics start on runs without a drive limit)
+        if get_effect(name).kind == "force" and not get_effect(name).periodic:
             pr_idim = _idim_probe(m, name, prep, b, idim_v)
             if pr_idim is not None:
                 probes.append(pr_idim)
