@@ -683,13 +683,15 @@ def test_a_short_logs_effort_does_not_veto_a_friction_for_its_few_rows(tmp_path:
     aside; its effort check has 83 sliding decimated rows. The Stribeck friction there cut the
     held-out position error 26x and its two parameters, fitted to one fold's effort, made the
     other's error x1.028: it was rejected for the 2 % tolerance alone. The tolerance now also
-    holds what two parameters fitted on ~40 rows add."""
+    holds what two parameters fitted on ~40 rows add. (The law was set aside by the mode
+    comparison while the plant was integrated with 5 ms steps; with 1 ms steps, its loop is
+    unstable and it is set aside before. Either way the effort checks the position's forces.)"""
     case = S.draw_case("stribeck", 25)
     outcome = C.diagnose_case(case, str(tmp_path))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
     report = outcome.report
     assert report is not None and "stribeck_friction" in report["effects"]
-    assert report["mode_comparison"]["chosen"] == "position"
+    assert report["data"]["mode"] == "position"
 
 
 def test_a_run_that_never_reverses_shows_its_friction_at_its_starts(tmp_path: object) -> None:
@@ -764,6 +766,24 @@ def test_a_stribeck_friction_small_against_the_force_scale_is_found(tmp_path: ob
     _, _, bounds, _ = fit_linear_cascade(prep)  # type: ignore[arg-type]
     excess = (case.plant.breakaway - case.plant.coulomb) / case.plant.mass
     assert excess < 0.02 * bounds.force
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None and "stribeck_friction" in report["effects"]
+
+
+def test_a_slow_stick_slip_log_is_integrated_finely_enough_to_show_its_stiction(
+        tmp_path: object) -> None:
+    """The sweep's stribeck/15: a rotary cascade that saturates, logged at 100 Hz (no effort).
+    Integrated with 2 plant substeps per logged sample (a 5 ms step), the stops of its
+    stick-slip motion landed up to a step late, and the Stribeck friction's fits gained
+    nothing over Coulomb friction alone (605 -> 213 mrad left, floor 96.7; the Stribeck
+    friction missed). With a step of at most 1 ms (10 substeps), the stiction is named."""
+    from fricbench.sysid.diagnose.prepared import MAX_STEP
+
+    case = S.draw_case("stribeck", 15)
+    prep = C.position_only(case, str(tmp_path))
+    assert prep.ts / prep.n_sub <= MAX_STEP < prep.ts / 2  # type: ignore[attr-defined]
     outcome = C.diagnose_case(case, str(tmp_path))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
     report = outcome.report

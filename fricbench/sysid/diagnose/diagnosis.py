@@ -841,7 +841,10 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         # otherwise start the loop's integrator in the wrong unit)
         v_run = (dataclasses.replace(validate, u=None)
                  if mode == "position" and validate.u is not None else validate)
-        prep_v = prepare(v_run, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum)
+        # the training run's integration step too (substeps per logged sample): the model is
+        # simulated as it was fitted
+        prep_v = prepare(v_run, cutoff_hz=prep.cutoff_hz, decim=prep.decim, quantum=quantum,
+                         n_sub=prep.n_sub * prep.inputs.n_loop)
         # the training run's loop rate (a property of the drive, as its gains are)
         prep_v = prep_v.with_loop(prep.inputs.n_loop)
         law_v = None
