@@ -46,13 +46,13 @@ moved, and drifts and backlashes found before were lost (and the 40,000-sample b
 in proportion)."""
 
 
-def substeps(ts: float, n_loop: int = 1) -> int:
+def substeps(ts: float, n_loop: int = 1, max_step: float = MAX_STEP) -> int:
     """Plant substeps per loop period for a log sampled every ``ts`` seconds whose loop runs
-    ``n_loop`` times per sample: enough for a step of at most :data:`MAX_STEP`, and never
+    ``n_loop`` times per sample: enough for a step of at most ``max_step`` (s), and never
     fewer than :data:`N_SUB_MIN`."""
     loop_ts = float(ts) / max(int(n_loop), 1)
     # a sample time read from a time column carries rounding: 10.000001 steps are 10
-    return max(N_SUB_MIN, math.ceil(loop_ts / MAX_STEP - 1e-6))
+    return max(N_SUB_MIN, math.ceil(loop_ts / max_step - 1e-6))
 
 
 @dataclass
