@@ -170,6 +170,47 @@ def test_inverse_dynamics_finds_a_cogging_period_longer_than_half_the_stroke():
     assert sse_cog < sse_pd
 
 
+def test_inverse_dynamics_levels_under_a_held_variation_along_the_stroke():
+    """``fit_levels`` solves the mass, damping and force levels with the relative variation of
+    the friction level held: from a plant row per unit mass holding the axis's true variation it
+    recovers the mass and Coulomb level in newtons, and the true variation explains the
+    effort far better than none or the opposite variation (what the position mode's effort
+    check judges a variation the position found with)."""
+    ref = _reference(duration=10.0)
+    stroke = float(np.ptp(ref.x))
+    axis = (Axis().with_mechanics(mass=300.0, damping=150.0)
+            .with_effects(friction_gradient=1.0, friction_variation=0.25,
+                          friction_variation_period=0.8 * stroke,
+                          friction_variation_phase=0.7))
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x, res.u))
+    idim = InverseDynamics(prep, res.u)
+    true = _grey_box_of(axis).plant  # per unit mass
+    effects = ("coulomb_friction", "stribeck_friction", "position_dependent_friction")
+    p = idim.fit_levels(effects, true)
+    assert p[CL.I_M] == pytest.approx(300.0, rel=0.05)
+    assert p[CL.I_FC] == pytest.approx(axis.friction.fc, rel=0.03)
+    for i in (CL.I_PDG, CL.I_PDA, CL.I_PDB, CL.I_PDP, CL.I_VS):
+        assert p[i] == true[i]  # held
+    rows = prep.sliding_dec
+
+    def sse(q: np.ndarray) -> float:
+        return float(np.sum((idim.u_dec - idim.predict(q))[rows] ** 2))
+
+    flat = true.copy()
+    flat[[CL.I_PDG, CL.I_PDA, CL.I_PDB]] = 0.0
+    wrong = true.copy()
+    wrong[[CL.I_PDG, CL.I_PDA, CL.I_PDB]] *= -1.0
+    assert sse(p) < 0.25 * sse(idim.fit_levels(effects, flat))
+    assert sse(p) < 0.25 * sse(idim.fit_levels(effects, wrong))
+    # in the model's own unit it is the least-squares solution of those columns: the Coulomb-only
+    # row (no variation) gives what fit() gives for Coulomb friction alone
+    alone = idim.fit_levels(("coulomb_friction",), CL.default_plant(1.0, 0.0))
+    np.testing.assert_allclose(alone[[CL.I_M, CL.I_B, CL.I_FC]],
+                               idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))[
+                                   [CL.I_M, CL.I_B, CL.I_FC]], rtol=1e-6)
+
+
 def test_period_candidates_on_a_synthetic_residual():
     rng = np.random.default_rng(0)
     x = np.cumsum(rng.uniform(-1e-5, 1e-5, 20000)) + np.linspace(0, 0.05, 20000)

@@ -834,3 +834,23 @@ def test_a_stiction_is_not_blamed_for_the_integrators_late_stops(tmp_path: objec
     report = outcome.report
     assert report is not None and "stribeck_friction" in report["effects"]
     assert "backlash" not in report["effects"]
+
+
+def test_a_friction_gradient_the_position_found_is_checked_against_the_effort_as_found(
+        tmp_path: object) -> None:
+    """The sweep's posdep/8: a 1 kHz cascade logged at 100 Hz with its current, on a rotary
+    axis whose friction rises 35 % across the stroke. The effort's law is set aside (it is
+    logged slower than the loop), and the position finds the friction varying along the
+    stroke (held-out position error x0.042). The effort check fitted that variation's gradient
+    and wave to the effort again, on 40 sliding rows a fold, and vetoed it (x1.636): the wave
+    took the noise. Held as the position found it, the variation cuts the held-out effort
+    error, and the diagnosis names it."""
+    case = S.draw_case("posdep", 8)
+    assert case.variant.effort is not None and case.variant.log_every == 10
+    outcome = C.diagnose_case(case, str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None and report["data"]["mode"] == "position"
+    cands = [c for st in report["steps"] for c in st.get("candidates", [])
+             if c["effect"] == "position_dependent_friction"]
+    assert cands and "rejected" not in cands[0].get("note", "")

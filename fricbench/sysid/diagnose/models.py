@@ -655,6 +655,44 @@ class InverseDynamics:
         out, _ = self._solve(effects, q, rows)
         return out
 
+    def fit_levels(self, effects: tuple[str, ...], p: np.ndarray,
+                   rows: np.ndarray | None = None) -> np.ndarray:
+        """Least-squares mass, damping and force levels of the force effects among
+        ``effects`` on ``rows`` (default all; sliding rows only), every other entry of ``p``
+        held: the shapes, and the relative variations of the levels along the stroke
+        (``Effect.relative_parameters``) that :meth:`fit` solves for.
+
+        The force law is linear in those levels, away from the clamps that keep a level or the
+        damping from turning negative: its columns are the law's derivatives at ``p`` by
+        forward differences (a step up, off the clamp of a level at 0, where a central step
+        halves the column), and ``p`` may be in other units than the effort (a model per unit
+        mass).
+        """
+        rows = np.ones(self.n_dec, dtype=bool) if rows is None else rows
+        rows = rows & self.prep.sliding_dec
+        forces = [get_effect(e) for e in effects if get_effect(e).kind == "force"]
+        levels = [CL.I_B] + sorted({i for e in forces for i in e.force_parameters} - {CL.I_B})
+        keep = {CL.I_B}.union(*(e.nonnegative for e in forces))
+        x, v = self.prep.xf, self.prep.vf
+        step = 1e-3 * max(max(abs(float(p[i])) for i in levels), 1e-12)
+        cols = [self.prep.af]
+        at_p = CL.sliding_force(p, x, v)
+        rest = at_p
+        for i in levels:
+            hi = p.copy()
+            hi[i] += step
+            col = (CL.sliding_force(hi, x, v) - at_p) / step
+            cols.append(col)
+            rest = rest - p[i] * col
+        X = decimate_columns(np.column_stack(cols), self.prep.decim)
+        lhs = self.u_dec - decimate_columns(rest, self.prep.decim)
+        nonneg = np.array([True] + [i in keep for i in levels])
+        coef = solve_ls(X[rows], lhs[rows], nonneg)
+        out = p.copy()
+        out[CL.I_M] = coef[0]
+        out[levels] = coef[1:]
+        return out
+
     def cv_sse(self, effects: tuple[str, ...], p: np.ndarray, new: str | None = None
                ) -> tuple[float, list[np.ndarray]]:
         """Held-out squared error: fit on one fold, evaluate on the other, both ways."""

@@ -74,6 +74,10 @@ class Effect(ABC):
         Entries that are forces (divided by the mass of an inverse-dynamics start).
     nonnegative : tuple of int
         Entries the inverse-dynamics least squares keeps non-negative (friction levels).
+    relative_parameters : tuple of int
+        Entries that are fractions of the friction level, not forces (a level's variation
+        along the stroke): the position mode's effort check holds them with the shape
+        (:meth:`~fricbench.sysid.diagnose.models.InverseDynamics.fit_levels`).
     idim_nonlinear : int or None
         The entry its inverse-dynamics regressors are nonlinear in (searched, not solved).
     period_parameter : int or None
@@ -109,6 +113,7 @@ class Effect(ABC):
     shape_parameters: ClassVar[tuple[int, ...]] = ()
     force_parameters: ClassVar[tuple[int, ...]] = ()
     nonnegative: ClassVar[tuple[int, ...]] = ()
+    relative_parameters: ClassVar[tuple[int, ...]] = ()
     idim_nonlinear: ClassVar[int | None] = None
     period_parameter: ClassVar[int | None] = None
     periodic: ClassVar[bool] = True

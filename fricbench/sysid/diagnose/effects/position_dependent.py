@@ -28,6 +28,7 @@ class PositionDependentFriction(Effect):
     summary = "friction levels that change along the stroke"
     parameters = (CL.I_PDG, CL.I_PDA, CL.I_PDB, CL.I_PDP)
     shape_parameters = (CL.I_PDP,)
+    relative_parameters = (CL.I_PDG, CL.I_PDA, CL.I_PDB)
     # a gradient plus one slow sinusoid: friction varying along the stroke, whose period may
     # well exceed the stroke
     periodic = False
