@@ -313,3 +313,26 @@ def test_the_inverse_dynamics_aligns_the_effort_for_a_zero_order_hold(seed: int)
     p = idim.fit((), CL.default_plant(1.0, 0.0))
     assert p[CL.I_B] == pytest.approx(b, rel=5e-3)
     assert p[CL.I_M] == pytest.approx(m, rel=2.5e-2)
+
+
+@pytest.mark.parametrize("rotary", [False, True])
+def test_a_backlash_on_its_largest_gap_stands_in_for_something_else(rotary: bool) -> None:
+    """A gap's range is physical (a few mrad of a gear train, a mm of a screw, a fifth of the
+    stroke), not a multiple of the force scale: a fit that ends there is rejected as a shape
+    parameter on its bound is (the second simulator's thermal/24, without backlash, took a
+    50 mrad gap as its first step); a gap inside the range is not."""
+    t = np.arange(4000) * 1e-3
+    amp = 1.0 if rotary else 0.05
+    run = validate_arrays(t, amp * np.sin(t), amp * np.sin(t - 0.01))
+    prep = prepare(run)
+    b = Bounds(force=1.0, stroke=prep.stroke, v_max=amp, duration=4.0, ts=1e-3, noise=1e-7,
+               rotary=rotary)
+    largest = get_effect("backlash").bounds(CL.I_BL, 0.0, b).hi
+    assert largest == pytest.approx(0.05 if rotary else 1e-3)
+    p = CL.default_plant(1.0, 1.0)
+    ctrl = ArxController(a=np.zeros(0), b=np.zeros(6), c=np.zeros(4), lead=2)
+    for gap, rejected in ((largest, True), (0.9999999 * largest, True), (0.3 * largest, False)):
+        p[CL.I_BL] = gap
+        why = artefact(GreyBox(ctrl, p.copy(), ("coulomb_friction", "backlash")), "backlash",
+                       prep, b)
+        assert (why is not None and "upper bound" in why) == rejected, (gap, why)

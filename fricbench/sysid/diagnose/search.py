@@ -727,8 +727,10 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
       not a pure sine leaves, not a second effect);
     * a shape parameter (a period, a time constant, a Stribeck velocity) that ended on a
       bound of its physical range (the optimum lies outside it: the effect stands in for
-      something else). Sizes are not checked: their bounds are a multiple of the run's force
-      scale, not a physical limit, and a vanished size is rejected by the size test;
+      something else), and so does a size whose range is physical
+      (:attr:`Effect.physical_sizes`, a backlash's gap). Other sizes are not checked: their
+      bounds are a multiple of the run's force scale, not a physical limit, and a vanished
+      size is rejected by the size test;
     * what the effect's own :meth:`Effect.evidence` finds missing in the run (``w``: the
       injected input of the free runs, as in :func:`simulate_position`).
     """
@@ -755,7 +757,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
                         f"same periodic term twice (the residual of {other}'s shape), not a "
                         "second effect")
     for i in effect.free(model.effects):
-        if i not in effect.shape_parameters:
+        if i not in effect.shape_parameters and i not in effect.physical_sizes:
             continue
         v = float(p[i])
         par = effect.bounds(i, v, b)

@@ -37,6 +37,10 @@ class Backlash(Effect):
     summary = ("lost motion between the motor and the measured position (play operator, or "
                "two bodies across the gap)")
     parameters = (CL.I_BL,)
+    # a gap on its largest value (a few mrad of a gear train, a mm of a screw, a fifth of the
+    # stroke) stands in for another mismatch: on the second simulator's thermal/24 (no
+    # backlash; a loop at 1 ms logged at 100 Hz) a gap of 50 mrad was the first step
+    physical_sizes = (CL.I_BL,)
 
     #: largest gap: 1 mm on a linear axis, 50 mrad (about 3 deg) on a rotary one (a gear train)
     LARGEST = 1e-3

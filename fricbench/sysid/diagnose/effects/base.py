@@ -78,6 +78,11 @@ class Effect(ABC):
         Entries that are fractions of the friction level, not forces (a level's variation
         along the stroke): the position mode's effort check holds them with the shape
         (:meth:`~fricbench.sysid.diagnose.models.InverseDynamics.fit_levels`).
+    physical_sizes : tuple of int
+        Sizes whose range is a physical limit of the axis, not a multiple of the run's force
+        scale (the largest backlash of a drive train): one that ends on its bound is an
+        artefact, as a shape parameter there is (:func:`~fricbench.sysid.diagnose.search.
+        artefact`).
     idim_nonlinear : int or None
         The entry its inverse-dynamics regressors are nonlinear in (searched, not solved).
     period_parameter : int or None
@@ -114,6 +119,7 @@ class Effect(ABC):
     force_parameters: ClassVar[tuple[int, ...]] = ()
     nonnegative: ClassVar[tuple[int, ...]] = ()
     relative_parameters: ClassVar[tuple[int, ...]] = ()
+    physical_sizes: ClassVar[tuple[int, ...]] = ()
     idim_nonlinear: ClassVar[int | None] = None
     period_parameter: ClassVar[int | None] = None
     periodic: ClassVar[bool] = True
