@@ -232,6 +232,26 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
                     max_iter: int = 15, n_best: int = 3) -> DriveLimit | None:
     """The drive's command limit, when a run without an effort shows one; else None.
 
+    The first of :func:`drive_limits`; see there.
+    """
+    return drive_limits(fit, prep, bounds, max_iter, n_best)[0]
+
+
+LIMIT_TENTATIVE = 1.0
+"""A limit whose loop leaves less than this share of the squared error without it, but not
+:data:`LIMIT_MARGIN`, is returned as tentative by :func:`drive_limits`: the loop with friction
+alone cannot tell, the effects the search then adds can (see the diagnosis's use of it)."""
+
+
+def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
+                 max_iter: int = 15, n_best: int = 3
+                 ) -> tuple[DriveLimit | None, DriveLimit | None]:
+    """The drive's command limit kept (or None), and else the best tentative one (or None).
+
+    A tentative limit clips at least :data:`LIMIT_MIN_CLIPPED` of the samples and leaves
+    less than :data:`LIMIT_TENTATIVE` of the squared error without it, but not
+    :data:`LIMIT_MARGIN`; the kept one leaves less than that margin.
+
     A drive that clips its current (a rapid move, a reversal against friction) lags the
     reference in a way no linear loop with friction reproduces: without the effort nothing
     says it clipped. The loop, a Coulomb force and a limit on the loop's command are fitted
@@ -263,33 +283,38 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     """
     a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
-        return None
+        return None, None
     motion = [(f_fc, f_lim) for f_fc in LIMIT_START_FRICTION for f_lim in LIMIT_START_LEVEL]
-    found = _fit_limit(fit, prep, bounds, a_ref, motion, LIMIT_LOWEST, (1.0, 2.0),
+    first = _fit_limit(fit, prep, bounds, a_ref, motion, LIMIT_LOWEST, (1.0, 2.0),
                        max_iter, n_best)
-    if found is None:
-        # the friction the fit without a limit found is a start of the second search too: a
-        # drive sized for its friction clips just above it, however it compares with the
-        # motion's acceleration (the second simulator's control/28: a PID whose limit is 1.3
-        # times a Coulomb force of 2.9 times the reference's largest acceleration, beyond the
-        # grid; the loop fitted without the limit left 12.6 um, 450 floors, and a false
-        # cogging cut that 2.7x)
-        fitted = (float(fit.model.plant[CL.I_FC]) / a_ref
-                  if "coulomb_friction" in fit.model.effects else 0.0)
-        levels = sorted({*LIMIT_START_FRICTION_SIZED, *([fitted] if fitted > 0.0 else [])})
-        friction = [(f_fc, h * f_fc) for f_fc in levels for h in LIMIT_START_HEADROOM]
-        found = _fit_limit(fit, prep, bounds, a_ref, friction, LIMIT_LOWEST_FRICTION_SIZED, (),
-                           max_iter, n_best)
-    return found
+    if first is not None and first.sse_ratio < LIMIT_MARGIN:
+        return first, None
+    # the friction the fit without a limit found is a start of the second search too: a
+    # drive sized for its friction clips just above it, however it compares with the
+    # motion's acceleration (the second simulator's control/28: a PID whose limit is 1.3
+    # times a Coulomb force of 2.9 times the reference's largest acceleration, beyond the
+    # grid; the loop fitted without the limit left 12.6 um, 450 floors, and a false
+    # cogging cut that 2.7x)
+    fitted = (float(fit.model.plant[CL.I_FC]) / a_ref
+              if "coulomb_friction" in fit.model.effects else 0.0)
+    levels = sorted({*LIMIT_START_FRICTION_SIZED, *([fitted] if fitted > 0.0 else [])})
+    friction = [(f_fc, h * f_fc) for f_fc in levels for h in LIMIT_START_HEADROOM]
+    second = _fit_limit(fit, prep, bounds, a_ref, friction, LIMIT_LOWEST_FRICTION_SIZED, (),
+                        max_iter, n_best)
+    if second is not None and second.sse_ratio < LIMIT_MARGIN:
+        return second, None
+    near = [d for d in (first, second) if d is not None and d.sse_ratio < LIMIT_TENTATIVE]
+    return None, (min(near, key=lambda d: d.sse_ratio) if near else None)
 
 
 def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: float,
                pairs: Sequence[tuple[float, float]], lowest: float | None,
                fit_levels: Sequence[float], max_iter: int, n_best: int) -> DriveLimit | None:
-    """One search of :func:`fit_drive_limit`: starts from ``fit`` with the limits
+    """One search of :func:`drive_limits`: starts from ``fit`` with the limits
     ``fit_levels`` and from the best ``n_best`` of the grid of ``(Coulomb force, limit)``
     ``pairs``, all in units of ``a_ref``, the limit bounded below by ``lowest`` of it (None:
-    the limit held at its start)."""
+    the limit held at its start). The best fit's limit, whatever the error it leaves, when it
+    clips at least :data:`LIMIT_MIN_CLIPPED` of the samples; else None."""
     limit_params = ([] if lowest is None
                     else [Param(CL.I_IMAX, True, lowest * a_ref, 100.0 * a_ref, 1.0)])
     starts = []
@@ -329,7 +354,7 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         return None
     clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
     ratio = float(best.cost / fit.cost)
-    if ratio < LIMIT_MARGIN and clipped >= LIMIT_MIN_CLIPPED:
+    if clipped >= LIMIT_MIN_CLIPPED:
         return DriveLimit(level, clipped, ratio, best.model)
     return None
 

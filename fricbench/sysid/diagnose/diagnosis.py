@@ -16,9 +16,10 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.baselines import (
+    LIMIT_MARGIN,
     DriveLimit,
     LinearTF,
-    fit_drive_limit,
+    drive_limits,
     fit_law_like,
     fit_linear_cascade,
     fit_linear_tf,
@@ -502,6 +503,11 @@ at 100 Hz and its backlash was missed
 (11.1 um left, floor 0.04 um); at 0.5 it is found (0.98 um), and no run of the 28 changes its
 outcome otherwise."""
 
+LOOP_RATE_BOTH = 1.0
+"""When the faster loop's fits leave less than this share of the slow loop's squared error
+(but not :data:`LOOP_RATE_MARGIN`), the search runs with both loops and keeps the faster one
+when its final model leaves less than :data:`LOOP_RATE_MARGIN` of the other's squared error."""
+
 
 @dataclass
 class _LoopBase:
@@ -516,6 +522,9 @@ class _LoopBase:
     limit: DriveLimit | None
     cost: float
     with_friction: GreyBox | None = None
+    with_tentative_limit: _LoopBase | None = None
+    """The same base with a drive limit the loop with friction alone could not confirm
+    (:func:`~fricbench.sysid.diagnose.baselines.drive_limits`)."""
 
 
 def _refit_linear(linear: GreyBox, prep: Prepared, bounds: Bounds, column: int, value: float
@@ -548,6 +557,7 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
     alt: tuple = ()
     limit = None
     fit = None
+    with_near: _LoopBase | None = None
     if n_reversals > 0:
         fit, bounds = friction_aware_fit_scaled(linear, prep, bounds)
         delay = int(fit.model.plant[CL.I_DELAY]) if fit is not None else 0
@@ -561,27 +571,40 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
                 cost = min(cost, float(np.sum((prep.x - y_lin) ** 2)))
             else:
                 fit = None  # a delay the linear loop cannot hold: the search runs without
-        limit = fit_drive_limit(fit, prep, bounds) if fit is not None else None
+        limit, near = drive_limits(fit, prep, bounds) if fit is not None else (None, None)
         fit_sse = (float(np.sum((prep.x - fit.y) ** 2)) if fit is not None
                    and np.all(np.isfinite(fit.y)) else math.inf)
         cost = min(cost, fit_sse)
         if limit is not None:
-            # the drive clips: every model of the run (the linear one included, as with a
-            # clipping effort) runs with the limit
-            # the linear loop refitted under the limit (its gains were fitted without one)
-            refit = _refit_linear(linear, prep, bounds, CL.I_IMAX, limit.level)
-            if refit is None:
+            limited = _limited(prep, linear, bounds, limit, cost, fit_sse)
+            if limited is None:
                 raise DiagnosisError("no valid linear model of this run: the linear loop "
                                      "with the identified drive limit diverges")
-            linear, y_lin = refit
-            cost = min(cost, limit.sse_ratio * fit_sse)
+            linear, y_lin, cost = limited
         # the alternative loop: the one fitted with the limit and friction together when the
         # drive clips, else the loop fitted with friction (with the linear plant refitted)
         loop = (limit.model if limit is not None
                 else friction_aware_loop(linear, prep, bounds, fit=fit))
         alt = (loop.controller,)
+        if near is not None:
+            # the same base with the tentative limit, for the search to try too
+            limited = _limited(prep, linear, bounds, near, cost, fit_sse)
+            if limited is not None:
+                with_near = _LoopBase(prep, *limited[:2], bounds, jac, (near.model.controller,),
+                                      near, limited[2], fit.model if fit is not None else None)
     return _LoopBase(prep, linear, y_lin, bounds, jac, alt, limit, cost,
-                     fit.model if fit is not None else None)
+                     fit.model if fit is not None else None, with_near)
+
+
+def _limited(prep: Prepared, linear: GreyBox, bounds: Bounds, limit: DriveLimit, cost: float,
+             fit_sse: float) -> tuple[GreyBox, np.ndarray, float] | None:
+    """The linear loop refitted under a drive limit (every model of the run then clips there,
+    the linear one included, as with a clipping effort: its gains were fitted without one),
+    its free run and the base's cost with the limit; None when that loop diverges."""
+    refit = _refit_linear(linear, prep, bounds, CL.I_IMAX, limit.level)
+    if refit is None:
+        return None
+    return refit[0], refit[1], min(cost, limit.sse_ratio * fit_sse)
 
 
 NO_FILTER_SHARE = 0.01
@@ -595,12 +618,10 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
     """The search on the position alone: a loop fitted to the position, forces per unit mass
     (``effort_check``: the regression of an effort the run logs but whose law was set aside,
     which a force effect must not contradict)."""
-    notes = ["no effort column: forces are reported per unit mass (m/s^2)"]
-    warnings: list[str] = []
-    laws = {"train": "a cascade fitted to the training run's position"}
     log("linear model: cascade controller on a unit mass, output-error fit")
-    base = _loop_base(prep, run.n_reversals)
+    slow = _loop_base(prep, run.n_reversals)
     n_fast = int(round(prep.ts / LOOP_TS))
+    fast = None
     if n_fast >= 2:
         # a log slower than a drive's loop: the loop is also fitted at LOOP_TS, and kept when
         # its fit (with friction and the drive's limit) is clearly closer to the data
@@ -608,13 +629,74 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
             fast = _loop_base(prep.with_loop(n_fast), run.n_reversals)
         except DiagnosisError:
             fast = None
-        if fast is not None and fast.cost < LOOP_RATE_MARGIN * base.cost:
-            base, slow_cost = fast, base.cost
-            notes.append(f"the loop is simulated at {1e3 * prep.inputs.ts / n_fast:.3g} ms, "
-                         f"{n_fast} periods per logged sample (with friction it leaves "
-                         f"{100 * fast.cost / slow_cost:.2g} % of the squared position error of "
-                         "a loop at the log's rate)")
-            log(f"  loop simulated at {n_fast} periods per logged sample")
+    fast_note = None
+    other = None
+    if fast is not None and fast.cost < LOOP_RATE_MARGIN * slow.cost:
+        log(f"  loop simulated at {n_fast} periods per logged sample")
+        main = fast
+        fast_note = _fast_loop_note(prep, n_fast, fast.cost, slow.cost, "with friction")
+    else:
+        main = slow
+        if fast is not None and fast.cost < LOOP_RATE_BOTH * slow.cost:
+            other = fast
+    best = _search_position(main, run, settings, log, t0, effort_check, fast_note=fast_note)
+    best_base = main
+    # the loop fitted with friction alone cannot tell a faster loop or a drive limit from
+    # their absence; the effects the search adds can (a drift or a cogging the other loop's
+    # gains took part of): the search runs from those bases too, and a model is kept by the
+    # same "below half" margin on its final squared error
+    if other is not None and best.sse > 0.0:
+        log(f"  the loop at {n_fast} periods per logged sample fits about as well "
+            f"({100 * other.cost / slow.cost:.2g} % of the squared error): the search also "
+            "runs with it")
+        second = _search_position(other, run, settings, log, t0, effort_check)
+        if second.finite and second.sse < LOOP_RATE_MARGIN * best.sse:
+            second.notes.insert(1, _fast_loop_note(prep, n_fast, second.sse, best.sse,
+                                                   "with the effects found"))
+            log(f"  kept: the loop at {n_fast} periods per logged sample")
+            best, best_base, fast_note = second, other, second.notes[1]
+        else:
+            log("  kept: the loop at the log's rate")
+    tentative = best_base.with_tentative_limit
+    if tentative is not None and tentative.limit is not None and best.sse > 0.0:
+        near = tentative.limit
+        log(f"  a drive limit of {near.level:.4g} m/s^2 per unit mass fits about as well "
+            f"({100 * near.sse_ratio:.2g} % of the squared error with friction alone): the "
+            "search also runs with it")
+        limited = _search_position(tentative, run, settings, log, t0, effort_check,
+                                   fast_note=fast_note)
+        if limited.finite and limited.sse < LIMIT_MARGIN * best.sse:
+            limited.notes.append(
+                f"the drive's limit is kept although the loop with friction alone fitted about "
+                f"as well without it: with the effects found the diagnosis with it leaves "
+                f"{100 * limited.sse / best.sse:.2g} % of the squared position error of the "
+                "diagnosis without it")
+            log("  kept: the drive limit")
+            best = limited
+        else:
+            log("  kept: no drive limit")
+    return best
+
+
+def _fast_loop_note(prep: Prepared, n_fast: int, cost: float, slow_cost: float, what: str
+                    ) -> str:
+    """The report's note on a loop simulated faster than the log."""
+    return (f"the loop is simulated at {1e3 * prep.inputs.ts / n_fast:.3g} ms, {n_fast} periods "
+            f"per logged sample ({what} it leaves {100 * cost / slow_cost:.2g} % of the squared "
+            "position error of a loop at the log's rate)")
+
+
+def _search_position(base: _LoopBase, run: RunData, settings: SearchSettings | None,
+                     log: Callable[[str], None], t0: float,
+                     effort_check: InverseDynamics | None, fast_note: str | None = None
+                     ) -> _ModeFit:
+    """The forward selection on the position from one loop base (at the log's rate or
+    faster, ``fast_note`` then saying so)."""
+    notes = ["no effort column: forces are reported per unit mass (m/s^2)"]
+    if fast_note is not None:
+        notes.append(fast_note)
+    warnings: list[str] = []
+    laws = {"train": "a cascade fitted to the training run's position"}
     prep, linear, y_lin, bounds, jac, alt = (base.prep, base.linear, base.y_lin, base.bounds,
                                              base.jac, base.alt)
     log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
