@@ -522,9 +522,11 @@ class _LoopBase:
     limit: DriveLimit | None
     cost: float
     with_friction: GreyBox | None = None
-    with_tentative_limit: _LoopBase | None = None
-    """The same base with a drive limit the loop with friction alone could not confirm
-    (:func:`~fricbench.sysid.diagnose.baselines.drive_limits`)."""
+    tentative_limit: DriveLimit | None = None
+    """A drive limit the loop with friction alone could not confirm
+    (:func:`~fricbench.sysid.diagnose.baselines.drive_limits`); see :func:`_with_limit`."""
+    friction_sse: float = math.inf
+    """Squared error of the loop fitted with friction (without a limit)."""
 
 
 def _refit_linear(linear: GreyBox, prep: Prepared, bounds: Bounds, column: int, value: float
@@ -557,7 +559,8 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
     alt: tuple = ()
     limit = None
     fit = None
-    with_near: _LoopBase | None = None
+    near = None
+    fit_sse = math.inf
     if n_reversals > 0:
         fit, bounds = friction_aware_fit_scaled(linear, prep, bounds)
         delay = int(fit.model.plant[CL.I_DELAY]) if fit is not None else 0
@@ -586,14 +589,22 @@ def _loop_base(prep: Prepared, n_reversals: int) -> _LoopBase:
         loop = (limit.model if limit is not None
                 else friction_aware_loop(linear, prep, bounds, fit=fit))
         alt = (loop.controller,)
-        if near is not None:
-            # the same base with the tentative limit, for the search to try too
-            limited = _limited(prep, linear, bounds, near, cost, fit_sse)
-            if limited is not None:
-                with_near = _LoopBase(prep, *limited[:2], bounds, jac, (near.model.controller,),
-                                      near, limited[2], fit.model if fit is not None else None)
     return _LoopBase(prep, linear, y_lin, bounds, jac, alt, limit, cost,
-                     fit.model if fit is not None else None, with_near)
+                     fit.model if fit is not None else None, near, fit_sse)
+
+
+def _with_limit(base: _LoopBase) -> _LoopBase | None:
+    """``base`` with its tentative drive limit (its linear loop refitted under it), for the
+    search to try too; None without one or when that loop diverges. Built only when the
+    search needs it (a refit of the linear loop)."""
+    near = base.tentative_limit
+    if near is None:
+        return None
+    limited = _limited(base.prep, base.linear, base.bounds, near, base.cost, base.friction_sse)
+    if limited is None:
+        return None
+    return _LoopBase(base.prep, limited[0], limited[1], base.bounds, base.jac,
+                     (near.model.controller,), near, limited[2], base.with_friction)
 
 
 def _limited(prep: Prepared, linear: GreyBox, bounds: Bounds, limit: DriveLimit, cost: float,
@@ -657,8 +668,8 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
             best, best_base, fast_note = second, other, second.notes[1]
         else:
             log("  kept: the loop at the log's rate")
-    tentative = best_base.with_tentative_limit
-    if tentative is not None and tentative.limit is not None and best.sse > 0.0:
+    tentative = _with_limit(best_base) if best.sse > 0.0 else None
+    if tentative is not None and tentative.limit is not None:
         near = tentative.limit
         log(f"  a drive limit of {near.level:.4g} m/s^2 per unit mass fits about as well "
             f"({100 * near.sse_ratio:.2g} % of the squared error with friction alone): the "
