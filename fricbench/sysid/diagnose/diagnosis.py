@@ -28,6 +28,7 @@ from fricbench.sysid.diagnose.baselines import (
     friction_aware_loop,
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
+from fricbench.sysid.diagnose.coverage import Coverage, coverage
 from fricbench.sysid.diagnose.effects import describe_parameters
 from fricbench.sysid.diagnose.models import (
     GreyBox,
@@ -132,6 +133,9 @@ class DiagnosisResult:
         The black-box transfer function, when requested.
     elapsed_s : float
         Wall time of the whole diagnosis, s.
+    validation_coverage : Coverage or None
+        How much of the validation run lies beyond the speeds and the stroke the training
+        run covered (its warnings are among the diagnosis's).
     """
 
     run: RunData
@@ -149,6 +153,7 @@ class DiagnosisResult:
     laws: dict[str, str] = field(default_factory=dict)
     diagnosis_warnings: list[str] = field(default_factory=list)
     mode_comparison: dict[str, object] | None = None
+    validation_coverage: Coverage | None = None
 
     @property
     def warnings(self) -> list[str]:
@@ -226,6 +231,8 @@ class DiagnosisResult:
             if self.validation.injected_share is not None:
                 val["injected_effort_share_pct"] = 100.0 * self.validation.injected_share
                 val["injected_effort_used"] = self.validation.used_injected
+            if self.validation_coverage is not None:
+                val["coverage"] = self.validation_coverage.to_dict()
             out["validation"] = val
         first = self.search.steps[0]
         rejected = self.search.final.rejected
@@ -947,6 +954,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     laws.update(fit.laws)
     tf = fit_linear_tf(prep) if compare_tf else None
     val_eval = None
+    val_coverage = None
     if validate is not None:
         # a model per unit mass (position mode) cannot use an effort in the drive's unit: the
         # validation run is read without it, as the training run was (its first effort would
@@ -973,6 +981,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         else:
             laws["validation"] = f"the training run's ({laws['train']})"
         val_eval = _evaluate(linear, final, prep_v, law_v)
+        val_coverage = coverage(prep, prep_v)
+        warnings += val_coverage.warnings(prep)
         if validate.u is None and prep.u is not None:
             notes.append("the validation run has no effort: only position metrics")
         if not np.all(np.isfinite(val_eval.y_after)):
@@ -985,4 +995,5 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                            search=search, train=train, validation=val_eval,
                            validation_run=validate, linear_tf=tf,
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
-                           diagnosis_warnings=warnings, mode_comparison=fit.comparison)
+                           diagnosis_warnings=warnings, mode_comparison=fit.comparison,
+                           validation_coverage=val_coverage)
