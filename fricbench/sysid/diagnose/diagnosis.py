@@ -171,9 +171,12 @@ class DiagnosisResult:
             held, name = (vpos["rms_before"], vpos["rms_after"]), "validation"
         else:
             held, name = (pos["rms_before"], pos["rms_after"]), "training (free run)"
+        si = self.run.units.get("position", "m")
+        unit = position_unit(self.run.units.get("position_logged", si))
         return judge(self.effects, pos["rms_after"], max(self.search.floor, 1e-300),
                      self.prep.x - self.train.y_after, self.prep.x, self.prep.inputs.vr,
-                     self.prep.ts, heldout=held, heldout_name=name)
+                     self.prep.ts, heldout=held, heldout_name=name,
+                     length=lambda v: f"{v * unit.per_si:.4g} {unit.display}")
 
     @property
     def effects(self) -> list[str]:

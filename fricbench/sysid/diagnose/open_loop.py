@@ -32,6 +32,7 @@ from fricbench.axis.open_loop import initial_state, simulate_open_loop
 from fricbench.run_events import motion_sign
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
+from fricbench.sysid.diagnose.verdict import HELDOUT_GAIN
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
@@ -599,14 +600,15 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
         held = _evaluate(fit.model, lin, validate[1], validate[2], ts, n_init)["position"]
         name = "validation"
     assert isinstance(held, dict)
-    fell = float(held["rms_after"]) < float(held["rms_before"])
+    fell = float(held["rms_after"]) < (1.0 - HELDOUT_GAIN) * float(held["rms_before"])
     effects = list(fit.model.effects)
     if effects and fell:
         verdict, reason = "explained", (f"{', '.join(effects)} added to the linear rigid body; "
                                         f"the {name} run's free-run position error fell")
     elif effects:
         verdict, reason = "not_explained", (f"{', '.join(effects)} added, but the {name} run's "
-                                            "free-run position error did not fall")
+                                            "free-run position error did not fall by more "
+                                            f"than {100 * HELDOUT_GAIN:.0f} %")
     elif at_floor:
         verdict, reason = "nothing_to_explain", "the linear rigid body is at the noise floor"
     else:
