@@ -263,7 +263,7 @@ def test_the_step_run_of_the_dc_motor_is_diagnosed_honestly() -> None:
         val = out["validation"]["position"]
         assert val["rms_after"] <= 1.02 * val["rms_before"]
         assert math.isfinite(val["rms_after"])
-        # the step run moves faster than the sine run ever did after its start-up (8 % of
+        # the step run moves faster than the sine run ever did after its start-up (9 % of
         # its samples), and the sine run's stroke is inside the step run's overshoots
         faster = [w for w in out["warnings"] if "moves faster" in w]
         assert bool(faster) == (train is sine)

@@ -30,15 +30,15 @@ from fricbench.axis.linear_law import simulate_batch, simulate_one
 from fricbench.axis.plant import N_PLANT, PLANT_NAMES, sliding_force
 
 __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_plant",
-           "sliding_force", "from_legacy_row", "LEGACY_N_PLANT", "I_M", "I_B", "I_FV", "I_FC",
-           "I_DFC", "I_DB", "I_FS", "I_VS", "I_OFF", "I_COGA", "I_COGB", "I_COGP", "I_PDG",
-           "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_THV", "I_IMAX",
-           "I_DELAY", "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR", "I_BL_LOAD"]
+           "sliding_force", "from_legacy_row", "LEGACY_N_PLANT",
+           "I_M", "I_B", "I_FC", "I_DFC", "I_DB", "I_FS", "I_VS", "I_OFF", "I_COGA", "I_COGB",
+           "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_THV",
+           "I_IMAX", "I_DELAY",
+           "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR", "I_BL_LOAD"]
 
 # -- the plant entries the diagnosis fits (indices into the plant row) --------------------------
 I_M, I_B, I_FC, I_DFC, I_DB = PL.M, PL.B, PL.FC, PL.DFC, PL.DB
 I_FS, I_VS, I_OFF = PL.FS_EXCESS, PL.VS, PL.OFFSET
-I_FV = PL.FV  # never fitted (the damping B is), but part of the linear damping
 I_COGA, I_COGB, I_COGP = PL.COG_SIN, PL.COG_COS, PL.COG_PERIOD
 I_PDG, I_PDA, I_PDB, I_PDP, I_XC = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIOD, PL.PD_CENTER
 I_BL, I_THA, I_THT, I_THV = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.TH_VHEAT

@@ -5,7 +5,7 @@ the speeds the run reached, its position effects (cogging, a friction level vary
 stroke) over the stroke it travelled. A validation run that goes further tests how the model
 extrapolates as much as the effects found, and a user reading its error must know that. The
 shared DC motor's sine run moves at 57 deg/s at most but for its start-up (92 deg/s, its
-99th percentile); its step run goes faster on 8 % of its samples (up to 119 deg/s), where the
+99th percentile); its step run goes faster on 9 % of its samples (up to 119 deg/s), where the
 effort rises with the speed about twice as steeply as at the sine's speeds: no model fitted
 to the sine run can know that, and its error on the step run says so.
 """

@@ -531,7 +531,6 @@ class InverseDynamics:
             raise ValueError(f"delay={delay!r}: expected an integer number of samples >= 0")
         self.prep = prep
         self.delay = int(delay)
-        u = prep.effort_filtered(np.asarray(u, dtype=float))
         if self.delay > 0:
             u = np.concatenate([np.full(self.delay, u[0]), u[:-self.delay]])
             label = f"{label}-delayed-{self.delay}"
@@ -552,15 +551,6 @@ class InverseDynamics:
     def predict(self, p: np.ndarray) -> np.ndarray:
         """Decimated effort predicted by plant row ``p``."""
         force = p[CL.I_M] * self.prep.af + CL.sliding_force(p, self.prep.xf, self.prep.vf)
-        return self._force_dec(force, p[CL.I_M] * self.prep.af
-                               + (p[CL.I_B] + p[CL.I_FV]) * self.prep.vf)
-
-    def _force_dec(self, force: np.ndarray, linear: np.ndarray | float = 0.0) -> np.ndarray:
-        """Decimated ``force`` (columns along axis 0), what is not its ``linear`` part (the
-        mass and damping times the filtered motion, which carries the derivative filter
-        already) through the effort's filter (:meth:`Prepared.effort_filtered`)."""
-        if self.prep.filters_effort:
-            force = linear + self.prep.effort_filtered(force - linear)
         return decimate_columns(force, self.prep.decim)
 
     def relerr(self, p: np.ndarray, rows: np.ndarray | None = None) -> float:
@@ -577,8 +567,7 @@ class InverseDynamics:
         key = ("col", name, *effect.idim_key(p, effects))
         if key not in self._layouts:
             cols, targets, scale = effect.idim_columns(p, effects, self.prep.xf, self.prep.vf)
-            # a force of the motion passes the effort's filter (parallel filtering)
-            self.prep.dec(key, self.prep.effort_filtered(cols))
+            self.prep.dec(key, cols)
             self._layouts[key] = (targets, scale)
         targets, scale = self._layouts[key]
         return self.prep.dec(key), targets, scale
@@ -695,13 +684,8 @@ class InverseDynamics:
             col = (CL.sliding_force(hi, x, v) - at_p) / step
             cols.append(col)
             rest = rest - p[i] * col
-        # the mass's and the damping's columns are the filtered motion itself; the rest of the
-        # force passes the effort's filter
-        linear = np.zeros((x.shape[0], len(cols)))
-        linear[:, 0] = self.prep.af
-        linear[:, 1] = v  # levels[0] is the damping
-        X = self._force_dec(np.column_stack(cols), linear)
-        lhs = self.u_dec - self._force_dec(rest, p[CL.I_FV] * v)
+        X = decimate_columns(np.column_stack(cols), self.prep.decim)
+        lhs = self.u_dec - decimate_columns(rest, self.prep.decim)
         nonneg = np.array([True] + [i in keep for i in levels])
         coef = solve_ls(X[rows], lhs[rows], nonneg)
         out = p.copy()

@@ -18,7 +18,6 @@ from fricbench.sysid.diagnose.signals import (
     decimate_columns,
     detect_saturation,
     filtered_derivatives,
-    lowpass,
     noise_floor,
 )
 from fricbench.sysid.io import RunData
@@ -155,31 +154,6 @@ class Prepared:
         """Length of the run, s."""
         return float(self.inputs.t[-1])
 
-    @property
-    def filters_effort(self) -> bool:
-        """Whether the derivative filter is narrower than the decimation's low-pass, so that
-        the effort and the force columns pass it too (:meth:`effort_filtered`)."""
-        return bool(self.cutoff_hz < 0.5 / (self.ts * max(self.decim, 1)))
-
-    def effort_filtered(self, u: np.ndarray) -> np.ndarray:
-        """``u`` (columns along axis 0) through the derivative filter when that is narrower
-        than the decimation's low-pass (:attr:`filters_effort`); else ``u`` itself.
-
-        Parallel filtering (IDIM-LS): the effort is regressed on the position's filtered
-        derivatives, so the effort and every force column built from the filtered motion
-        must pass the same band as the acceleration. With the recipe's filter (a tenth of the
-        sampling rate, decimation by 10) the decimation's low-pass (at half that cut-off) is
-        the narrower and filters them all. A filter chosen from a coarse sensor can be far
-        narrower (the DC motor's 2.07 Hz against the decimation's 10 Hz): the effort kept a
-        band the acceleration had lost, and the mass came out too large where the
-        acceleration was attenuated (the DC motor's sine run: 3.59, and 2.88 filtered alike;
-        a coarse-sensor test run with a ripple near the cut-off: 2.5 to 3.7 times the truth,
-        and within a third of it filtered alike).
-        """
-        if not self.filters_effort:
-            return u
-        return lowpass(u, self.ts, self.cutoff_hz)
-
     def dec(self, key: object, column: np.ndarray | None = None) -> np.ndarray:
         """The decimated form of a full-rate column, cached under ``key``."""
         if key not in self._dec_cache:
@@ -259,7 +233,7 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
         prep.sliding_dec = np.ones(n_dec, dtype=bool)
     if sat is not None:
         # a clipped effort is the drive's limit, not the force the law asked for: the rows it
-        # touches (after the spread of the filters the effort passes) stay out of the friction fit
-        near = prep.dec("saturated", prep.effort_filtered(sat.mask.astype(float)))
+        # touches (after the decimation filter's spread) stay out of the friction fit
+        near = prep.dec("saturated", sat.mask.astype(float))
         prep.sliding_dec = prep.sliding_dec & (np.abs(near) < 0.01)
     return prep

@@ -10,7 +10,6 @@ filtering does not bias a model that is linear in its parameters.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,7 +17,7 @@ from scipy import optimize, signal
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
            "block_folds", "fold_blocks", "period_candidates", "MIN_PERIODS_IN_STROKE",
-           "choose_filter", "lowpass", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
+           "choose_filter", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
 
 MIN_PERIODS_IN_STROKE = 1.0
 """Fewest periods of a periodic force (cogging) the stroke must cover for it to be searched (a
@@ -54,28 +53,14 @@ def filtered_derivatives(x: np.ndarray, ts: float, cutoff_hz: float,
     xf, v, a : ndarray, shape (K,)
         Filtered position (m), velocity (m/s) and acceleration (m/s^2) by central differences.
     """
-    xf = lowpass(x, ts, cutoff_hz, order)
-    v = np.gradient(xf, ts)
-    acc = np.gradient(v, ts)
-    return xf, v, acc
-
-
-def lowpass(x: np.ndarray, ts: float, cutoff_hz: float, order: int = 4) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``x`` along axis 0 (the derivative filter of
-    :func:`filtered_derivatives`; forward and backward, twice the order in magnitude)."""
     nyq = 0.5 / ts
     if not 0.0 < cutoff_hz < nyq:
         raise ValueError(f"cutoff_hz={cutoff_hz!r}: expected a value in (0, {nyq:g}) Hz")
     b, a = signal.butter(order, cutoff_hz / nyq)
-    # the odd extension at each end spans at least one period of the cut-off: a narrow filter
-    # (2 Hz on a 500 Hz log) rings that long, and scipy's default of 3 (order + 1) samples
-    # left a transient there that the inverse dynamics took for an acceleration (on a coarse
-    # sensor's test run with the effort filtered alike, a mass of 0.18 of the truth; 0.80 with
-    # this pad). The recipe's filter (a tenth of the sampling rate) rings 10 samples and keeps
-    # the default.
-    pad = max(3 * max(len(a), len(b)), math.ceil(1.0 / (cutoff_hz * ts)))
-    return np.asarray(signal.filtfilt(b, a, x, axis=0, padlen=min(pad, x.shape[0] - 1)),
-                      dtype=float)
+    xf = signal.filtfilt(b, a, x, padlen=min(3 * max(len(a), len(b)), x.shape[0] - 1))
+    v = np.gradient(xf, ts)
+    acc = np.gradient(v, ts)
+    return xf, v, acc
 
 
 def decimate_columns(cols: np.ndarray, factor: int) -> np.ndarray:
