@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from fricbench.run_events import MotionEvent, motion_events
+from fricbench.sysid.units import POSITION_UNITS, PositionUnit
 
 __all__ = ["Run", "RUN_UNITS", "validate_run_arrays"]
 
@@ -205,6 +206,15 @@ class Run:
     def duration(self) -> float:
         """Length of the run, s."""
         return float(self.t[-1] - self.t[0])
+
+    @property
+    def logged_unit(self) -> PositionUnit:
+        """The position unit the log was in (``units["position_logged"]``, else the SI unit):
+        the unit figures are shown in (deg stays deg, mm is shown in um)."""
+        name = self.units.get("position_logged", self.units.get("position", "m"))
+        if name not in POSITION_UNITS:
+            name = "rad" if self.units.get("position") == "rad" else "m"
+        return POSITION_UNITS[name]
 
     @property
     def has_effort(self) -> bool:

@@ -62,3 +62,17 @@ def test_run_events_are_those_of_its_reference() -> None:
     assert kinds == [("start", 1), ("reversal", -1), ("reversal", 1), ("reversal", -1),
                      ("reversal", 1)]
     assert [e.index for e in run.events()] == [0, 250, 750, 1250, 1750]
+
+
+def test_figures_are_shown_in_the_unit_the_log_was_in() -> None:
+    from fricbench.sysid.io import validate_arrays
+
+    t = np.arange(200) * 1e-3
+    x = 0.1 * np.sin(t)
+    y = x + 1e-4 * np.cos(7 * t)
+    assert validate_arrays(t, x, y, position_unit="deg").logged_unit.display == "deg"
+    assert validate_arrays(t, x, y, position_unit="rad").logged_unit.display == "mrad"
+    assert validate_arrays(t, x, y, position_unit="mm").logged_unit.display == "um"
+    # a run built without the loader's record of its unit: the SI unit's family
+    assert Run(t, x, x).logged_unit.display == "um"
+    assert Run(t, x, x, units={"position": "rad"}).logged_unit.display == "mrad"

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.units import position_unit
 
 __all__ = ["Coverage", "coverage", "REACH_QUANTILE", "REACH_MARGIN", "BEYOND_SHARE"]
 
@@ -72,11 +71,7 @@ class Coverage:
 
     def warnings(self, prep: Prepared) -> list[str]:
         """What a user must know before reading the validation error (units of the log)."""
-        try:
-            unit = position_unit(prep.run.units.get("position_logged",
-                                                    prep.run.units.get("position", "m")))
-        except ValueError:
-            unit = position_unit("m")
+        unit = prep.run.logged_unit
         out = []
         if self.share_faster > BEYOND_SHARE:
             k, u = unit.velocity_per_si, unit.velocity_display

@@ -42,7 +42,6 @@ from fricbench.sysid.diagnose.prepared import Prepared, prepare, substeps
 from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
 from fricbench.sysid.diagnose.verdict import FLOOR_FACTOR, Verdict, judge
 from fricbench.sysid.io import RunData
-from fricbench.sysid.units import position_unit
 
 __all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "INJECTED_EFFORT_SHARE",
            "DiagnosisError", "LAW_MAX_RELERR_PCT"]
@@ -171,8 +170,7 @@ class DiagnosisResult:
             held, name = (vpos["rms_before"], vpos["rms_after"]), "validation"
         else:
             held, name = (pos["rms_before"], pos["rms_after"]), "training (free run)"
-        si = self.run.units.get("position", "m")
-        unit = position_unit(self.run.units.get("position_logged", si))
+        unit = self.run.logged_unit
         return judge(self.effects, pos["rms_after"], max(self.search.floor, 1e-300),
                      self.prep.x - self.train.y_after, self.prep.x, self.prep.inputs.vr,
                      self.prep.ts, heldout=held, heldout_name=name,
@@ -818,7 +816,7 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     pos.comparison = dict(comparison, chosen="position")
-    shown = position_unit(run.units.get("position_logged", run.units.get("position", "m")))
+    shown = run.logged_unit
     unit, k = shown.display, shown.per_si
     alone = (" from the reference alone (without the effort the law leaves unexplained)"
              if effort.train.used_injected else "")

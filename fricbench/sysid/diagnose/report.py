@@ -18,7 +18,6 @@ from fricbench.run_events import motion_sign, sign_reversals
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.diagnosis import DiagnosisResult
 from fricbench.sysid.diagnose.models import InverseDynamics
-from fricbench.sysid.units import position_unit
 
 __all__ = ["write_json", "write_report", "jsonable", "PLOTS"]
 
@@ -90,7 +89,7 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     t = prep.inputs.t
     r_before = prep.x - result.train.y_before
     r_after = prep.x - result.train.y_after
-    pu = position_unit(result.run.units.get("position_logged", "m"))
+    pu = result.run.logged_unit
     um, ul = pu.per_si, pu.display  # residuals in um, mrad or deg
     vk, vl = pu.velocity_per_si, pu.velocity_display
     xk, xl = pu.coarse_per_si, pu.coarse_display

@@ -223,12 +223,7 @@ def _unit(prep: Prepared) -> str:
 
 def _length(prep: Prepared, value: float) -> str:
     """A position figure (SI) in the unit the log was in (deg stays deg, mm stays mm)."""
-    from fricbench.sysid.units import position_unit
-
-    try:
-        unit = position_unit(prep.run.units.get("position_logged", _unit(prep)))
-    except ValueError:
-        return f"{value:.4g} {_unit(prep)}"
+    unit = prep.run.logged_unit
     return f"{value * unit.per_si:.4g} {unit.display}"
 
 

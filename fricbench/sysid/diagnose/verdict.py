@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
+from fricbench.sysid.diagnose.search import POSITION_TOLERANCE
+
 __all__ = ["Verdict", "describe", "judge", "EXPLAINED_SHARE", "FLOOR_FACTOR", "HELDOUT_GAIN"]
 
 EXPLAINED_SHARE = 0.5
@@ -29,13 +31,13 @@ EXPLAINED_SHARE = 0.5
 FLOOR_FACTOR = 1.5
 """A residual within this multiple of the free-run noise floor is at the floor."""
 
-HELDOUT_GAIN = 0.02
+HELDOUT_GAIN = POSITION_TOLERANCE
 """The held-out position error must fall by more than this fraction for the effects added to
-count as explaining it: the tolerance within which an effect may leave the free-run position
-(the search's ``POSITION_TOLERANCE``), so a change within it is no change. The shared DC
-motor's sine run adds a force offset that moves its validation on the step run from 5.538 to
-5.438 deg (1.8 %), while that error stays 5 times the step run's noise floor (it moves faster than
-the sine run ever did): that is not an explained run."""
+count as explaining it: the search's tolerance within which an effect may leave the free-run
+position, so a change within it is no change. The shared DC motor's sine run adds a force
+offset that moves its validation on the step run from 5.538 to 5.438 deg (1.8 %), while that
+error stays 5 times the step run's noise floor (it moves faster than the sine run ever did):
+that is not an explained run."""
 
 
 @dataclass(frozen=True)
