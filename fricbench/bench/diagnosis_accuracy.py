@@ -1,0 +1,364 @@
+"""How often ``fricbench diagnose`` is right, on runs of an independent simulator.
+
+``python -m fricbench.bench.diagnosis_accuracy [--set tuning|heldout|both] [--jobs 2]
+[--backend joblib|ray] [--out leaderboards/diagnosis.md]`` draws runs of the tests' second
+simulator (``tests/sysid/second_sim.py``: its own integrator, stick-slip, controllers, units
+and log layouts, written apart from the project's plant), runs the real command line on each
+and judges the report against the run's truth (``tests/sysid/second_sim_check.py``: the effect
+present named, no effect named that is absent, the free-run position error at most half the
+linear model's or 1.5 noise floors).
+
+Two sets of runs, kept apart as a model's training and test data are:
+
+- **tuning**: the seeds the diagnosis has been developed on (1-28 of each kind, and 500-504,
+  which were reported in the tracker). Per-case rows go to ``diagnosis_tuning.csv`` beside the
+  table, so a miss can be studied.
+- **held-out**: :data:`HELDOUT_RUNS` seeds drawn from :data:`HELDOUT_ENTROPY` (one kind per
+  seed, in turn), far from the tuning seeds. Only their counts are written: no table, test,
+  doc or commit message names a held-out case, so that no rule is fitted to one. A rule earns
+  its place when the held-out accuracy does not fall.
+
+The table (right / missed / false per effect, per loop structure, the commit and the tuning
+seeds) is written atomically; the exit status is 0 when every run was diagnosed (right or not),
+1 when a run failed outright (a traceback, a non-finite number: those are also counted wrong).
+
+It needs a checkout of the repository (the simulators live with the tests), and takes about
+25 s of CPU per run: the held-out set is a benchmark command, not part of ``make test``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter, defaultdict
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["HELDOUT_ENTROPY", "HELDOUT_RUNS", "CaseResult", "tuning_cases", "heldout_cases",
+           "run_cases", "summarise", "write_table", "main"]
+
+HELDOUT_ENTROPY = 0x5EC0_2D51_4D00
+"""Entropy of the held-out seeds (:func:`heldout_cases`): fixed so the set is the same on every
+machine, never listed, so no one tunes to a case of it."""
+
+HELDOUT_RUNS = 102
+"""Runs of the held-out set: 17 seeds of each of the simulator's 6 kinds (at least 100 runs, as
+the method's evaluation asks)."""
+
+HELDOUT_SEED_BASE = 10_000
+"""Held-out seeds are drawn at or above this, clear of every tuning seed."""
+
+TUNING_SEEDS = tuple(range(1, 29))
+"""Seeds of each kind the diagnosis was developed on."""
+
+TUNING_EXTRA = tuple(range(500, 505))
+"""Seeds of each kind reported in the tracker (then studied): tuning, not held out."""
+
+_SIM_DIR = ("tests", "sysid")
+
+
+def _sim_dir() -> Path:
+    """The folder of the tests' simulators in this checkout (a clear error without one)."""
+    root = Path(__file__).resolve().parents[2]
+    folder = root.joinpath(*_SIM_DIR)
+    if not (folder / "second_sim.py").is_file():
+        raise FileNotFoundError(
+            f"the diagnosis accuracy runs the tests' simulators, expected at {folder}: run it "
+            "from a checkout of the repository (an installed wheel has no tests)")
+    return folder
+
+
+def _sim_modules() -> tuple[Any, Any]:
+    """The second simulator and its judge, imported from the tests' folder."""
+    folder = str(_sim_dir())
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    return importlib.import_module("second_sim"), importlib.import_module("second_sim_check")
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    """One diagnosed run, as plain values (what a worker process sends back).
+
+    Attributes
+    ----------
+    kind, seed : str, int
+        The simulator's case.
+    present : str or None
+        The effect the run carries (None: a control run, friction only).
+    named : tuple of str
+        The effects the report names.
+    ok : bool
+        Whether the diagnosis is right.
+    failures : tuple of str
+        Why not.
+    law, log_rate, effort : str
+        The run's loop structure: ``cascade`` or ``pid``, ``1kHz`` or ``100Hz``, the logged
+        effort's unit or ``none``.
+    crashed : bool
+        A traceback or a non-finite number in the report.
+    elapsed : float
+        Wall time of the command, s.
+    """
+
+    kind: str
+    seed: int
+    present: str | None
+    named: tuple[str, ...]
+    ok: bool
+    failures: tuple[str, ...]
+    law: str
+    log_rate: str
+    effort: str
+    crashed: bool
+    elapsed: float
+
+
+def tuning_cases(extra: bool = True) -> list[tuple[str, int]]:
+    """The tuning set's ``(kind, seed)`` pairs: :data:`TUNING_SEEDS` (and :data:`TUNING_EXTRA`)
+    of every kind."""
+    kinds = _sim_modules()[0].KINDS
+    seeds = TUNING_SEEDS + (TUNING_EXTRA if extra else ())
+    return [(k, s) for s in seeds for k in kinds]
+
+
+def heldout_cases(n: int = HELDOUT_RUNS) -> list[tuple[str, int]]:
+    """The held-out set's ``(kind, seed)`` pairs: ``n`` distinct seeds drawn from
+    :data:`HELDOUT_ENTROPY`, the kinds taken in turn."""
+    if n < 1:
+        raise ValueError(f"n={n!r}: expected a positive number of held-out runs")
+    kinds = _sim_modules()[0].KINDS
+    state = np.random.SeedSequence(HELDOUT_ENTROPY).generate_state(4 * n, dtype=np.uint32)
+    seeds: list[int] = []
+    for v in state:
+        s = HELDOUT_SEED_BASE + int(v) % 1_000_000
+        if s not in seeds:
+            seeds.append(s)
+        if len(seeds) == n:
+            break
+    return [(kinds[i % len(kinds)], s) for i, s in enumerate(seeds)]
+
+
+def diagnose_one(kind: str, seed: int, duration: float | None = None) -> CaseResult:
+    """Draw the simulator's case ``kind``/``seed``, diagnose it and judge it."""
+    sim, check = _sim_modules()
+    case = sim.draw_case(kind, seed, duration=duration)
+    with tempfile.TemporaryDirectory(prefix="diagnosis-accuracy-") as workdir:
+        out = check.diagnose_case(case, workdir)
+    var = case.variant
+    crashed = any(f.startswith(("traceback", "non-finite", "JSON")) for f in out.failures)
+    return CaseResult(kind=kind, seed=seed, present=sim.EFFECT_NAME[kind],
+                      named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
+                      law=var.law, log_rate="100Hz" if var.log_every > 1 else "1kHz",
+                      effort=var.effort or "none", crashed=crashed, elapsed=out.elapsed)
+
+
+def run_cases(cases: Sequence[tuple[str, int]], *, jobs: int = 2, backend: str = "joblib",
+              address: str | None = None, progress: bool = True) -> list[CaseResult]:
+    """Diagnose ``cases`` on the bench's backend; results in the order of ``cases``."""
+    from fricbench.bench.runner import _joblib_map, _ray_map
+
+    if backend not in ("joblib", "ray"):
+        raise ValueError(f"backend={backend!r}: expected 'joblib' or 'ray'")
+    if not (jobs == -1 or jobs >= 1):
+        raise ValueError(f"jobs={jobs!r}: expected a positive number of workers or -1 (all)")
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(cases), desc="diagnosis runs", unit="run", file=sys.stderr)
+
+    def tick(_: Any) -> None:
+        if bar is not None:
+            bar.update(1)
+
+    map_fn = _joblib_map(jobs, tick) if backend == "joblib" else _ray_map(address, tick)
+    results: list[CaseResult | None] = [None] * len(cases)
+    try:
+        for i, res in map_fn(diagnose_one, [(k, s) for k, s in cases]):
+            results[i] = res
+    finally:
+        if bar is not None:
+            bar.close()
+    return [r for r in results if r is not None]
+
+
+@dataclass
+class Summary:
+    """Counts of one set of runs."""
+
+    n: int = 0
+    right: int = 0
+    crashed: int = 0
+    controls: int = 0
+    controls_false: int = 0
+    found: Counter[str] = field(default_factory=Counter)
+    missed: Counter[str] = field(default_factory=Counter)
+    present: Counter[str] = field(default_factory=Counter)
+    false: Counter[str] = field(default_factory=Counter)
+    by_structure: dict[str, list[int]] = field(default_factory=lambda: defaultdict(lambda: [0, 0]))
+    seconds: list[float] = field(default_factory=list)
+
+    @property
+    def share(self) -> float:
+        """Share of the runs diagnosed right, %."""
+        return 100.0 * self.right / self.n if self.n else 0.0
+
+
+def summarise(results: Sequence[CaseResult], friction: frozenset[str]) -> Summary:
+    """Count right, missed and false effects, per effect and per loop structure.
+
+    ``friction`` are the names that are never false (every run has friction of some form).
+    """
+    s = Summary()
+    for r in results:
+        s.n += 1
+        s.right += r.ok
+        s.crashed += r.crashed
+        s.seconds.append(r.elapsed)
+        false = set(r.named) - friction - ({r.present} if r.present else set())
+        for name in false:
+            s.false[name] += 1
+        if r.present is None:
+            s.controls += 1
+            s.controls_false += bool(false)
+        else:
+            s.present[r.present] += 1
+            if r.present in r.named:
+                s.found[r.present] += 1
+            else:
+                s.missed[r.present] += 1
+        for key in (f"law: {r.law}", f"log: {r.log_rate}",
+                    f"effort: {'logged' if r.effort != 'none' else 'not logged'}"):
+            s.by_structure[key][0] += r.ok
+            s.by_structure[key][1] += 1
+    return s
+
+
+def _git(*args: str) -> str:
+    try:
+        out = subprocess.run(["git", *args], capture_output=True, text=True, timeout=10,
+                             cwd=Path(__file__).resolve().parents[2])
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return out.stdout.strip() or "unknown"
+
+
+def _section(title: str, s: Summary) -> Iterator[str]:
+    yield f"## {title}: {s.right}/{s.n} right ({s.share:.1f} %)"
+    yield ""
+    yield (f"- control runs (friction only) with a false effect: {s.controls_false}/"
+           f"{s.controls}")
+    yield f"- runs that failed outright (traceback, non-finite number): {s.crashed}"
+    if s.seconds:
+        yield (f"- diagnose time per run: mean {np.mean(s.seconds):.1f} s, max "
+               f"{np.max(s.seconds):.1f} s")
+    yield ""
+    yield "| effect | present | found | missed | named where absent |"
+    yield "|---|---|---|---|---|"
+    for name in sorted(set(s.present) | set(s.false)):
+        yield (f"| {name} | {s.present[name]} | {s.found[name]} | {s.missed[name]} | "
+               f"{s.false[name]} |")
+    yield ""
+    yield "| loop structure | right | runs | % |"
+    yield "|---|---|---|---|"
+    for key in sorted(s.by_structure):
+        ok, n = s.by_structure[key]
+        yield f"| {key} | {ok} | {n} | {100.0 * ok / n:.1f} |"
+    yield ""
+
+
+def write_table(path: str | os.PathLike[str], sections: Sequence[tuple[str, Summary]],
+                command: str, note: str = "") -> None:
+    """Write the accuracy table (markdown) atomically."""
+    from fricbench._atomic import atomic_write
+
+    lines = ["# Diagnosis accuracy on the second simulator", "",
+             f"Generated by `{command}` at commit `{_git('rev-parse', '--short', 'HEAD')}`"
+             f"{' (with uncommitted changes)' if _git('status', '--porcelain', '-uno') not in ('', 'unknown') else ''}"  # noqa: E501
+             f" on {time.strftime('%Y-%m-%d')}.", "",
+             "A run is right when the effect it carries is named, no absent effect is named "
+             "(friction of any form is never absent) and the free-run position error is at "
+             "most half the linear model's or 1.5 noise floors. Tuning seeds: "
+             f"{TUNING_SEEDS[0]}-{TUNING_SEEDS[-1]} and {TUNING_EXTRA[0]}-{TUNING_EXTRA[-1]} "
+             "of each kind; the held-out set is "
+             f"{HELDOUT_RUNS} seeds drawn from `HELDOUT_ENTROPY` in "
+             "`fricbench/bench/diagnosis_accuracy.py`, never listed (see its docstring).", ""]
+    if note:
+        lines += [note, ""]
+    for title, s in sections:
+        lines += list(_section(title, s))
+    atomic_write(path, "\n".join(lines))
+
+
+def _write_cases(path: str | os.PathLike[str], results: Sequence[CaseResult]) -> None:
+    from fricbench._atomic import atomic_write
+
+    rows = ["kind,seed,present,named,ok,law,log_rate,effort,elapsed_s,failures"]
+    for r in results:
+        rows.append(",".join([r.kind, str(r.seed), r.present or "", "|".join(r.named),
+                              str(int(r.ok)), r.law, r.log_rate, r.effort,
+                              f"{r.elapsed:.1f}", '"' + "; ".join(r.failures).replace(
+                                  '"', "'") + '"']))
+    atomic_write(path, "\n".join(rows) + "\n")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the chosen sets, print and write the table."""
+    ap = argparse.ArgumentParser(prog="python -m fricbench.bench.diagnosis_accuracy",
+                                 description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("--set", dest="which", choices=("tuning", "heldout", "both"),
+                    default="both", help="which runs (default: both)")
+    ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    ap.add_argument("--backend", choices=("joblib", "ray"), default="joblib")
+    ap.add_argument("--address", default=None, help="Ray cluster address (with --backend ray)")
+    ap.add_argument("--heldout-runs", type=int, default=HELDOUT_RUNS,
+                    help=f"runs of the held-out set (default {HELDOUT_RUNS})")
+    ap.add_argument("--out", default="leaderboards/diagnosis.md",
+                    help="the table (default leaderboards/diagnosis.md); '-' prints only")
+    args = ap.parse_args(argv)
+    if not (args.jobs == -1 or args.jobs >= 1):
+        ap.error(f"--jobs {args.jobs}: expected a positive number of workers or -1 (all)")
+    if args.heldout_runs < 1:
+        ap.error(f"--heldout-runs {args.heldout_runs}: expected a positive number of runs")
+    try:
+        sim = _sim_modules()[0]
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    friction = frozenset(sim.FRICTION_NAMES)
+    sections: list[tuple[str, Summary]] = []
+    failed = False
+    t0 = time.perf_counter()
+    plan = []
+    if args.which in ("tuning", "both"):
+        plan.append(("Tuning set", tuning_cases(), True))
+    if args.which in ("heldout", "both"):
+        plan.append(("Held-out set", heldout_cases(args.heldout_runs), False))
+    for title, cases, keep_rows in plan:
+        results = run_cases(cases, jobs=args.jobs, backend=args.backend, address=args.address)
+        s = summarise(results, friction)
+        failed |= s.crashed > 0
+        sections.append((title, s))
+        print("\n".join(_section(title, s)), flush=True)
+        if keep_rows and args.out != "-":
+            _write_cases(Path(args.out).with_name("diagnosis_tuning.csv"), results)
+    command = "python -m fricbench.bench.diagnosis_accuracy " + " ".join(
+        argv if argv is not None else sys.argv[1:])
+    if args.out != "-":
+        write_table(args.out, sections, command.strip())
+        print(f"wrote {args.out} ({time.perf_counter() - t0:.0f} s)")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
