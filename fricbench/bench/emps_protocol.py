@@ -73,7 +73,9 @@ class ProtocolResult:
         return {"protocol": {"train": TRAIN_FILE, "test": TEST_FILE, "input": "force_N",
                              "output": "q_m", "n_init": N_INIT, "metric": "RMSE of y[20:], mm"},
                 "model": {"effects": list(self.fit.model.effects),
-                          "parameters": self.fit.model.describe("N")},
+                          "parameters": self.fit.model.describe("N"),
+                          "parameter_sd": self.fit.uncertainty("N"),
+                          "not_detected": self.fit.not_detected},
                 "search": {"heldout_rmse_mm": {k: 1e3 * v for k, v in self.fit.heldout.items()},
                            "steps": self.fit.steps},
                 "train": mm(self.train), "test": mm(self.test),
@@ -197,6 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     res = run_protocol(args.data, folds=args.folds, log=not args.quiet)
     print(format_table(res))
     print(f"\nmodel parameters: {json.dumps(res.fit.model.describe('N'))}")
+    print(f"their standard deviations: {json.dumps(res.fit.uncertainty('N'))}")
     print(f"elapsed {res.elapsed_s:.1f} s")
     if args.json:
         atomic_write(args.json, json.dumps(res.to_json(), indent=2) + "\n")

@@ -164,3 +164,39 @@ def test_emps_protocol_plot_and_json(tmp_path) -> None:  # type: ignore[no-untyp
     out = tmp_path / "test.png"
     plot_test_run(res, out)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("effect", ["stribeck_friction", "position_dependent_friction"])
+def test_an_absent_effect_fitted_anyway_is_not_detected(effect: str) -> None:
+    # a rigid axis with Coulomb friction only: a Stribeck excess or a friction varying along
+    # the stroke, fitted in, lies within two standard deviations of zero
+    from fricbench.sysid.diagnose import open_loop as O
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
+
+    par, u, y = _draw(0)
+    fit = O._fit_multistart((*BASE_EFFECTS, effect), u, y, TS, [(0, y.size)], 20)
+    sd, n_eff = O._uncertainty(fit, DEFAULT_SETTINGS)
+    assert 1.0 <= n_eff <= y.size
+    weak = O._least_detected(fit, sd, DEFAULT_SETTINGS)
+    assert weak is not None and weak[0] == effect
+    # the friction that is there is detected, its standard deviation a small share of it
+    i = fit.idx.index(PL.FC)
+    assert fit.model.plant[PL.FC] > 10 * sd[i]
+    assert fit.model.plant[PL.FC] == pytest.approx(par["fc"], abs=10 * sd[i] + 0.01 * par["fc"])
+
+
+def test_search_reports_the_parameters_standard_deviations() -> None:
+    from fricbench.sysid.diagnose.open_loop import search_open_loop
+
+    par, u, y = _draw(1)
+    fit = search_open_loop(u, y, TS, candidates=())
+    sd = fit.uncertainty("N")
+    assert set(sd) == set(fit.model.describe("N"))
+    for key, value in fit.model.describe("N").items():
+        spread = sd[key]
+        if isinstance(value, dict):
+            assert isinstance(spread, dict) and set(spread) == set(value)
+            assert all(np.isfinite(v) and v > 0.0 for v in spread.values())
+        else:
+            assert isinstance(spread, float) and 0.0 < spread < 0.05 * abs(value)
+    assert fit.not_detected == []

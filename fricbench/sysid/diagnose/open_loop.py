@@ -19,6 +19,9 @@ scales, since only sizes are fitted open loop.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import math
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -30,8 +33,16 @@ from scipy.signal import butter, filtfilt, welch
 from fricbench.axis import plant as PL
 from fricbench.axis.open_loop import initial_state, simulate_open_loop
 from fricbench.run_events import motion_sign
+from fricbench.sysid.diagnose.criterion import (
+    described_sd,
+    effective_samples,
+    parameter_covariance,
+)
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
+from fricbench.sysid.diagnose.parameters import BOUND_TOLERANCE
+from fricbench.sysid.diagnose.selection import Scored, select
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings
 from fricbench.sysid.diagnose.verdict import HELDOUT_GAIN
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
@@ -104,13 +115,32 @@ class OpenLoopFit:
     heldout : dict
         Held-out free-run error (rms, m) of every model the search judged, by effect set.
     steps : list of dict
-        The search's decisions, in order.
+        The search's decisions, in order (:class:`~fricbench.sysid.diagnose.selection.
+        Selection`).
+    idx : tuple of int
+        The plant entries fitted in the final fit.
+    sd : ndarray
+        Their standard deviations (in ``idx`` order), from the Jacobian at the optimum.
+    n_eff : float
+        Independent samples the final fit's residual is worth.
+    not_detected : list of dict
+        Effects the search chose whose sizes lay within ``detection_sd`` standard deviations
+        of zero in the final fit, so left out.
     """
 
     model: OpenLoopModel
     train_rms: float
     heldout: dict[str, float]
     steps: list[dict[str, object]]
+    idx: tuple[int, ...] = ()
+    sd: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    n_eff: float = 0.0
+    not_detected: list[dict[str, object]] = field(default_factory=list)
+
+    def uncertainty(self, force_unit: str = "N") -> dict[str, object]:
+        """Standard deviations of the reported parameters, keyed as :meth:`OpenLoopModel.
+        describe` keys them."""
+        return describe_uncertainty(self.model, self.idx, self.sd, force_unit)
 
 
 def _scales(effort: np.ndarray, y: np.ndarray, ts: float) -> dict[str, float]:
@@ -219,17 +249,19 @@ def _segments_residual(rows: np.ndarray, effort: np.ndarray, y: np.ndarray, ts: 
     return np.nan_to_num(res, nan=10.0 * (float(np.ptp(y)) + 1.0))
 
 
-def fit_open_loop(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
-                  segments: Sequence[tuple[int, int]], n_init: int,
-                  max_nfev: int = 60) -> tuple[OpenLoopModel, float]:
-    """Fit the model's free entries by free-run simulation error over ``segments``.
+@dataclass
+class _Fit:
+    """One output-error fit: the model, its rms error, and what its uncertainty needs."""
 
-    Each segment ``[lo, hi)`` is simulated from the effort, its state taken from its first
-    ``n_init`` samples; the error counts from sample ``lo + n_init``. Levenberg-Marquardt-like
-    trust-region least squares with a forward-difference Jacobian whose rows run in one batch.
+    model: OpenLoopModel
+    rms: float
+    idx: list[int]
+    jac: np.ndarray = field(repr=False)
+    residual: np.ndarray = field(repr=False)
 
-    Returns the fitted model and its rms simulation error over the segments, m.
-    """
+
+def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
+         segments: Sequence[tuple[int, int]], n_init: int, max_nfev: int = 60) -> _Fit:
     sc = _scales(effort, y, ts)
     idx = list(model.free())
     p0 = model.plant.copy()
@@ -256,7 +288,24 @@ def fit_open_loop(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: f
                         xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
     p = p0.copy()
     p[idx] = res.x * scale
-    return OpenLoopModel(p, model.effects), float(np.sqrt(np.mean(res.fun ** 2)))
+    # dr/dp = dr/dz / scale: the Jacobian in the plant row's own units
+    return _Fit(OpenLoopModel(p, model.effects), float(np.sqrt(np.mean(res.fun ** 2))), idx,
+                np.asarray(res.jac) / scale[None, :], np.asarray(res.fun))
+
+
+def fit_open_loop(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
+                  segments: Sequence[tuple[int, int]], n_init: int,
+                  max_nfev: int = 60) -> tuple[OpenLoopModel, float]:
+    """Fit the model's free entries by free-run simulation error over ``segments``.
+
+    Each segment ``[lo, hi)`` is simulated from the effort, its state taken from its first
+    ``n_init`` samples; the error counts from sample ``lo + n_init``. Levenberg-Marquardt-like
+    trust-region least squares with a forward-difference Jacobian whose rows run in one batch.
+
+    Returns the fitted model and its rms simulation error over the segments, m.
+    """
+    fit = _fit(model, effort, y, ts, segments=segments, n_init=n_init, max_nfev=max_nfev)
+    return fit.model, fit.rms
 
 
 def _blocks(n: int, k: int) -> list[tuple[int, int]]:
@@ -266,7 +315,7 @@ def _blocks(n: int, k: int) -> list[tuple[int, int]]:
 
 def _fit_multistart(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray, ts: float,
                     segments: Sequence[tuple[int, int]], n_init: int,
-                    extra: Sequence[np.ndarray] = ()) -> tuple[OpenLoopModel, float]:
+                    extra: Sequence[np.ndarray] = ()) -> _Fit:
     """Best fit (lowest error on ``segments``) from the inverse-dynamics start and ``extra``."""
     sc = _scales(effort, y, ts)
     sel = np.zeros(y.size, dtype=bool)
@@ -282,13 +331,13 @@ def _fit_multistart(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray,
     for name in effects:
         if name in DATA_SHAPED:
             rows = _data_starts(name, rows, effort, y, ts, segments, n_init, sel)
-    best: tuple[OpenLoopModel, float] | None = None
+    best: _Fit | None = None
     for q in rows:
-        fit = fit_open_loop(OpenLoopModel(q, effects), effort, y, ts, segments=segments,
-                            n_init=n_init)
-        if best is None or fit[1] < best[1]:
+        fit = _fit(OpenLoopModel(q, effects), effort, y, ts, segments=segments, n_init=n_init)
+        if best is None or fit.rms < best.rms:
             best = fit
-    assert best is not None
+    if best is None:
+        raise ValueError("no start to fit the open-loop model from")
     return best
 
 
@@ -319,26 +368,48 @@ def _data_starts(name: str, rows: list[np.ndarray], effort: np.ndarray, y: np.nd
 
 def _heldout(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray, ts: float,
              folds: Sequence[tuple[int, int]], n_init: int,
-             fold_starts: dict[int, np.ndarray]) -> tuple[float, dict[int, np.ndarray]]:
-    """Rms free-run error over the held-out blocks, each fitted on the other blocks."""
-    sq, count = 0.0, 0
+             fold_starts: dict[int, np.ndarray], settings: DiagnoseSettings) -> Scored:
+    """The structure ``effects`` scored: its free-run error over the held-out blocks, each
+    fitted on the other blocks and simulated free from its own first ``n_init`` samples."""
+    parts = []
     fitted: dict[int, np.ndarray] = {}
     for j, (lo, hi) in enumerate(folds):
         train = [f for i, f in enumerate(folds) if i != j]
         extra = [fold_starts[j]] if j in fold_starts else []
-        model, _ = _fit_multistart(effects, effort, y, ts, train, n_init, extra)
+        model = _fit_multistart(effects, effort, y, ts, train, n_init, extra).model
         fitted[j] = model.plant
         yh = simulate_model(model.plant, effort[lo:hi], y[lo:hi], ts, n_init)[0]
-        e = np.nan_to_num(yh[n_init:] - y[lo + n_init:hi], nan=float(np.ptp(y)) + 1.0)
-        sq += float(np.sum(e ** 2))
-        count += e.size
-    return float(np.sqrt(sq / count)), fitted
+        parts.append(yh[n_init:] - y[lo + n_init:hi])
+    e = np.concatenate(parts)
+    sse = float(np.sum(e ** 2)) if np.all(np.isfinite(e)) else float("inf")
+    k = len(OpenLoopModel(PL.default_row(1.0, 0.0, ts), effects).free())
+    return Scored(effects, sse, int(e.size), k, np.nan_to_num(e), _violation(effects, fitted,
+                                                                             ts), fitted)
+
+
+def _violation(effects: tuple[str, ...], fitted: dict[int, np.ndarray], ts: float
+               ) -> str | None:
+    """The plausibility constraint a structure's block fits break: a fitted shape parameter
+    (a resonance's frequency or damping) on a bound of its physical range in any block."""
+    for name in effects:
+        if name not in DATA_SHAPED:
+            continue
+        for i in get_effect(name).shape_parameters:
+            lo, hi = _bounds(i, ts)
+            for p in fitted.values():
+                for edge in (lo, hi):
+                    if math.isfinite(edge) and abs(p[i] - edge) <= BOUND_TOLERANCE * max(
+                            abs(edge), abs(hi - lo) if math.isfinite(hi - lo) else 1.0):
+                        return f"{name}: a shape parameter on its bound ({edge:.4g})"
+    return None
 
 
 FLOOR_FACTOR = 3.0
-"""The search stops when the held-out error is within this factor of the free-run floor.
+"""The open-loop verdict's floor: a periodic run whose free-run error is within this factor of
+the noise between its periods is at the noise floor (the search itself stops on the criterion,
+not on a floor).
 
-The floor is what the current model itself would make from a noisy start; a model fitted on
+A free-run floor is what the current model itself would make from a noisy start; a model fitted on
 one block (its parameters bent by that block's noisy start) and run on another makes about
 twice that (measured on a simulated two-mass run: the right structure's held-out error 2.3
 times its floor, the true parameters' 1.4 times), and a flexible effect added there fits
@@ -388,17 +459,78 @@ def free_run_floor(fold_fits: dict[int, np.ndarray], effort: np.ndarray, y: np.n
     return float(np.sqrt(sq / count)) if count else 0.0
 
 
-def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: int = 20,
-                     folds: int = 2, candidates: Sequence[str] = CANDIDATE_EFFECTS,
-                     max_effects: int = 3, min_gain: float = 0.03,
-                     floor_factor: float = FLOOR_FACTOR, log: Log | None = None
-                     ) -> OpenLoopFit:
-    """Forward selection of effects on held-out free-run error, then a fit on the whole run.
+class _Effects:
+    """The open loop's candidates: registry effects, as the search's objects."""
 
-    The run is cut into ``folds`` contiguous blocks. A model's held-out error is the rms
-    free-run error over every block when fitted on the others. A candidate effect joins the
-    model when it lowers that error by at least ``min_gain`` (relative); the best one joins
-    first. The final model is fitted on the whole run as one free-run segment.
+    def __init__(self, names: Sequence[str]) -> None:
+        self.items = [get_effect(n) for n in names]
+
+
+def _sizes(name: str, idx: Sequence[int]) -> list[int]:
+    """Entries of ``idx`` that are sizes of effect ``name`` (not its shape)."""
+    eff = get_effect(name)
+    return [i for i in eff.parameters if i not in eff.shape_parameters and i in idx]
+
+
+def _uncertainty(fit: _Fit, settings: DiagnoseSettings) -> tuple[np.ndarray, float]:
+    """Standard deviations of the fit's free entries (in ``fit.idx`` order) and ``n_eff``."""
+    n_eff = effective_samples(fit.residual, settings.max_lag_share)
+    cov = parameter_covariance(fit.jac, fit.residual, n_eff)
+    return np.sqrt(np.maximum(np.diag(cov), 0.0)), n_eff
+
+
+def _least_detected(fit: _Fit, sd: np.ndarray, settings: DiagnoseSettings
+                    ) -> tuple[str, float] | None:
+    """The effect whose sizes all lie within ``detection_sd`` standard deviations of zero,
+    the least significant first, with its largest ``|size| / sd``; None when every one is
+    detected."""
+    worst: tuple[str, float] | None = None
+    for name in fit.model.effects:
+        sizes = _sizes(name, fit.idx)
+        if not sizes:
+            continue
+        z = max(abs(fit.model.plant[i]) / max(sd[fit.idx.index(i)], 1e-300) for i in sizes)
+        if z <= settings.detection_sd and (worst is None or z < worst[1]):
+            worst = (name, z)
+    return worst
+
+
+def describe_uncertainty(fit_model: OpenLoopModel, idx: Sequence[int], sd: np.ndarray,
+                         force_unit: str = "N") -> dict[str, object]:
+    """Standard deviations of :meth:`OpenLoopModel.describe`'s values (the delta method)."""
+    cov = np.diag(np.asarray(sd, dtype=float) ** 2)
+    idx = list(idx)
+    row = fit_model.plant
+    steps = np.array([1e-6 * max(abs(row[i]), 1e-9) for i in idx])
+    out: dict[str, object] = {}
+    lin = described_sd(lambda q: {"mass": float(q[PL.M]),
+                                  f"viscous_{force_unit}_s_m": float(q[PL.B])},
+                       row, idx, cov, steps)
+    out.update(lin)
+    for name in fit_model.effects:
+        out[name] = described_sd(functools.partial(describe_parameters, name,
+                                                   force_unit=force_unit),
+                                 row, idx, cov, steps)
+    return out
+
+
+def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: int = 20,
+                     folds: int | None = None, candidates: Sequence[str] = CANDIDATE_EFFECTS,
+                     max_effects: int | None = None,
+                     settings: DiagnoseSettings = DEFAULT_SETTINGS, force_unit: str = "N",
+                     log: Log | None = None) -> OpenLoopFit:
+    """The diagnosis' one search on an open-loop run, then the final fit and its uncertainty.
+
+    The run is cut into ``folds`` contiguous blocks. A structure (the effects in the model) is
+    scored by its held-out free-run error, every block fitted on the others
+    (:func:`_heldout`), and judged by the one criterion
+    (:func:`~fricbench.sysid.diagnose.criterion.criterion_change`) in the one search
+    (:func:`~fricbench.sysid.diagnose.selection.select`: forward, then one backward pass).
+    The chosen structure is then fitted on the whole run by its simulation error (all its
+    parameters together, from the blocks' fits), the standard deviations of its parameters
+    taken from the Jacobian at that optimum; an effect whose every size lies within
+    :attr:`~DiagnoseSettings.detection_sd` of zero is not detected: it leaves the model, which
+    is fitted again without it.
 
     Parameters
     ----------
@@ -408,67 +540,66 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
         Sample time, s.
     n_init : int
         Samples of each segment used for its initial state.
-    folds : int
-        Held-out blocks (at least 2).
+    folds : int, optional
+        Held-out blocks (default: ``settings.folds``).
     candidates : sequence of str
         Registry effects to try beyond :data:`BASE_EFFECTS`.
-    max_effects : int
-        Most effects added to the base model.
-    min_gain : float
-        Relative held-out improvement an effect must bring.
-    floor_factor : float
-        Stop once the held-out error is within this factor of the free-run floor of the
-        current model (:func:`free_run_floor`): what is left is the initial state's noise.
+    max_effects : int, optional
+        Most effects added to the base model (default: ``settings.max_effects``).
+    settings : DiagnoseSettings
+    force_unit : str
+        The effort's unit, for the figures of an effect not detected.
     log : callable, optional
         Progress lines.
     """
-    if folds < 2:
-        raise ValueError(f"folds={folds!r}: at least 2 blocks are needed to hold one out")
+    if folds is not None or max_effects is not None:
+        settings = dataclasses.replace(
+            settings, folds=settings.folds if folds is None else folds,
+            max_effects=settings.max_effects if max_effects is None else max_effects)
     effort = np.asarray(effort, dtype=float)
     y = np.asarray(y, dtype=float)
     if effort.shape != y.shape or effort.ndim != 1:
         raise ValueError(f"effort, y: expected two 1-D arrays of one length, got shapes "
                          f"{effort.shape} and {y.shape}")
-    if y.size // folds < 5 * n_init:
-        raise ValueError(f"folds={folds!r}: blocks of {y.size // folds} samples are too short "
-                         f"for n_init={n_init!r}")
+    if y.size // settings.folds < 5 * n_init:
+        raise ValueError(f"folds={settings.folds!r}: blocks of {y.size // settings.folds} "
+                         f"samples are too short for n_init={n_init!r}")
     say = log or (lambda _s: None)
-    blocks = _blocks(y.size, folds)
-    effects = BASE_EFFECTS
-    score, fold_fits = _heldout(effects, effort, y, ts, blocks, n_init, {})
-    heldout = {"+".join(effects): score}
-    steps: list[dict[str, object]] = [{"effects": list(effects), "heldout_rms": score}]
-    say(f"open loop: base {', '.join(effects)}: held-out rms {1e3 * score:.4g} mm")
-    remaining = [c for c in candidates if c not in effects]
-    while remaining and len(effects) - len(BASE_EFFECTS) < max_effects:
-        floor = free_run_floor(fold_fits, effort, y, ts, blocks, n_init)
-        say(f"  free-run floor of the model {1e3 * floor:.4g} mm")
-        if score <= floor_factor * floor:
-            steps.append({"stop": "at the noise floor", "heldout_rms": score,
-                          "floor_rms": floor})
-            say(f"  at the noise floor of a free run ({1e3 * floor:.4g} mm): stop")
-            break
-        trials = {}
-        for name in remaining:
-            trial = (*effects, name)
-            s, fits = _heldout(trial, effort, y, ts, blocks, n_init, fold_fits)
-            heldout["+".join(trial)] = s
-            trials[name] = (s, fits)
-            say(f"  + {name}: held-out rms {1e3 * s:.4g} mm")
-        name = min(trials, key=lambda k: trials[k][0])
-        s, fits = trials[name]
-        accepted = s < (1.0 - min_gain) * score
-        steps.append({"candidate": name, "heldout_rms": s, "accepted": accepted})
-        if not accepted:
-            break
-        effects, score, fold_fits = (*effects, name), s, fits
-        remaining.remove(name)
-        say(f"  -> {name} accepted")
+    blocks = _blocks(y.size, settings.folds)
+
+    def score(structure: tuple[str, ...], current: Scored) -> Scored:
+        starts = current.state if set(current.structure) <= set(structure) else {}
+        return _heldout(structure, effort, y, ts, blocks, n_init, starts, settings)
+
+    base = _heldout(BASE_EFFECTS, effort, y, ts, blocks, n_init, {}, settings)
+    say(f"open loop: base {', '.join(BASE_EFFECTS)}: held-out rms {1e3 * base.rms:.4g} mm")
+    chosen = select(base, _Effects([c for c in candidates if c not in BASE_EFFECTS]).items,
+                    score, settings, say, describe=lambda v: f"{1e3 * v:.4g} mm")
+    effects = chosen.best.structure
+    starts = list(chosen.best.state.values())
     full = [(0, y.size)]
-    model, train_rms = _fit_multistart(effects, effort, y, ts, full, n_init,
-                                       list(fold_fits.values()))
-    say(f"open loop: final {', '.join(effects)}: train free-run rms {1e3 * train_rms:.4g} mm")
-    return OpenLoopFit(model, train_rms, heldout, steps)
+    fit = _fit_multistart(effects, effort, y, ts, full, n_init, starts)
+    sd, n_eff = _uncertainty(fit, settings)
+    not_detected: list[dict[str, object]] = []
+    for _ in range(len(effects)):
+        weak = _least_detected(fit, sd, settings)
+        if weak is None:
+            break
+        name, z = weak
+        not_detected.append({"effect": name, "size_over_sd": z,
+                             "parameters": describe_parameters(name, fit.model.plant,
+                                                               force_unit),
+                             "sd": describe_uncertainty(fit.model, fit.idx, sd,
+                                                        force_unit).get(name, {})})
+        say(f"  {name}: within {settings.detection_sd:g} standard deviations of zero "
+            f"(|size|/sd {z:.3g}): not detected, fitted again without it")
+        effects = tuple(e for e in effects if e != name)
+        fit = _fit_multistart(effects, effort, y, ts, full, n_init, [fit.model.plant])
+        sd, n_eff = _uncertainty(fit, settings)
+    say(f"open loop: final {', '.join(effects) or 'rigid body'}: train free-run rms "
+        f"{1e3 * fit.rms:.4g} mm")
+    return OpenLoopFit(fit.model, fit.rms, chosen.scores, chosen.decisions,
+                       idx=tuple(fit.idx), sd=sd, n_eff=n_eff, not_detected=not_detected)
 
 
 def free_run_errors(y_sim: np.ndarray, y: np.ndarray, n_init: int) -> dict[str, float]:
@@ -556,8 +687,10 @@ def _evaluate(fit_model: OpenLoopModel, linear: OpenLoopModel, effort: np.ndarra
 
 def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
                        validate: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-                       n_init: int = 20, force_unit: str = "N", folds: int = 2,
-                       max_effects: int = 3, log: Log | None = None) -> dict[str, object]:
+                       n_init: int = 20, force_unit: str = "N", folds: int | None = None,
+                       max_effects: int | None = None,
+                       settings: DiagnoseSettings = DEFAULT_SETTINGS,
+                       log: Log | None = None) -> dict[str, object]:
     """Open-loop diagnosis of a run: the JSON-ready report of ``fricbench diagnose --open-loop``.
 
     ``position`` is the free-run simulation error of the measured position from the effort
@@ -569,7 +702,14 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     ts = float(np.median(np.diff(t)))
     warnings: list[str] = []
     fit = search_open_loop(effort, y, ts, n_init=n_init, folds=folds,
-                           max_effects=max_effects, log=log)
+                           max_effects=max_effects, settings=settings, force_unit=force_unit,
+                           log=log)
+    folds = settings.folds if folds is None else folds
+    for item in fit.not_detected:
+        warnings.append(f"{item['effect']} not detected: the search chose it, but in the final "
+                        f"fit its size lies within {settings.detection_sd:g} standard "
+                        f"deviations of zero (|size|/sd {float(item['size_over_sd']):.3g}); "  # type: ignore[arg-type]
+                        "left out")
     sc = _scales(effort, y, ts)
     p_lin = _idim_start(effort, y, ts, (), sc)
     p_lin[[PL.FC, PL.OFFSET]] = 0.0
@@ -587,7 +727,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     at_floor = False
     if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
         ratio = rms / per["noise_between_periods"]
-        at_floor = ratio <= 3.0
+        at_floor = ratio <= FLOOR_FACTOR
         residual = ("at the noise floor (within 3x the noise between periods)" if at_floor
                     else f"free-run error {ratio:.3g}x the noise between periods: the drift of "
                          "the rigid-body mode integrates what the model misses")
@@ -622,10 +762,13 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
         "verdict_detail": {"verdict": verdict, "reason": reason, "residual": residual},
         "effects": list(fit.model.effects),
         "parameters": fit.model.describe(force_unit),
+        "parameter_sd": fit.uncertainty(force_unit),
+        "not_detected": fit.not_detected,
         "position": train["position"],
         "effort": train["effort"],
         "search": {"heldout_rms_m": fit.heldout, "steps": fit.steps, "folds": folds,
-                   "n_init": n_init},
+                   "n_init": n_init, "criterion": "n_eff ln(SSE_heldout / n) + "
+                   f"{DEFAULT_SETTINGS.penalty:g} k", "n_eff_final_fit": fit.n_eff},
         "linear_model": {"parameters": lin.describe(force_unit)},
         "warnings": warnings,
     }
