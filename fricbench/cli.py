@@ -98,6 +98,17 @@ def _cmd_list(args: argparse.Namespace) -> int:
     return 1 if problems else 0
 
 
+def _refuse_existing(args: argparse.Namespace, options: tuple[str, ...]) -> None:
+    """Raise when an output file of ``options`` exists and ``--force`` was not given."""
+    if args.force:
+        return
+    for name in options:
+        out = getattr(args, name)
+        if out and Path(out).exists():
+            raise ValueError(f"--{name} {out}: the file exists; pass --force to overwrite it, "
+                             "or give another file name")
+
+
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -106,6 +117,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from fricbench.gym import get_spec
     from fricbench.trajectories import make_trajectory
 
+    _refuse_existing(args, ("csv", "plot", "polar"))
     spec = get_spec(args.env)
     axis = spec.axis
     measured = None
@@ -423,6 +435,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--polar", metavar="FILE.png",
                    help="circle only: write the ballbar picture, a polar plot of the radius "
                         "with the radial error magnified (scale written on the plot)")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite existing --csv, --plot and --polar files (without it, an "
+                        "existing file is refused with exit status 2, before simulating)")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser(

@@ -318,3 +318,52 @@ def test_bench_records_the_compensator_settings(tmp_path: Path, gain_compensator
     assert rows["none"]["compensator_kwargs"] == ""
     md = (tmp_path / "PaperAxis-v0.md").read_text()
     assert '`test-gain`: `{"gain": 0.5, "policy": "from-file"}`' in md
+
+
+@pytest.mark.parametrize("option", ["--csv", "--plot", "--polar"])
+def test_simulate_refuses_an_existing_output_without_force(
+        option: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import fricbench.axis
+
+    def no_run(*args: object, **kwargs: object) -> None:
+        raise AssertionError("simulated before checking the output files")
+
+    monkeypatch.setattr(fricbench.axis, "simulate", no_run)
+    out = tmp_path / "keep.out"
+    out.write_text("mine")
+    argv = ["simulate", "--env", "fricbench/CircleContouring-v0", option, str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"{option} {out}: the file exists; pass --force" in err and "Traceback" not in err
+    assert out.read_text() == "mine"
+
+
+def test_simulate_force_overwrites(tmp_path: Path) -> None:
+    out = tmp_path / "run.csv"
+    out.write_text("old")
+    assert main(["simulate", "--trajectory", "s_curve", "--csv", str(out), "--force"]) == 0
+    assert out.read_text().startswith("t,")
+
+
+@pytest.mark.parametrize("option", ["--json", "--env-out"])
+def test_diagnose_refuses_an_existing_output_without_force(
+        option: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import fricbench.sysid.io
+
+    def no_load(*args: object, **kwargs: object) -> None:
+        raise AssertionError("read the data before checking the output files")
+
+    monkeypatch.setattr(fricbench.sysid.io, "load_run", no_load)
+    data = tmp_path / "run.csv"
+    data.write_text("t,x_ref,x,u\n0,0,0,0\n")
+    out = tmp_path / ("twin.toml" if option == "--env-out" else "report.json")
+    out.write_text("mine")
+    assert main(["diagnose", str(data), option, str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{option} {out}: the file exists; pass --force" in err and "Traceback" not in err
+    assert out.read_text() == "mine"
+    # with --force the option check passes and the run goes on to read the data
+    with pytest.raises(AssertionError, match="read the data"):
+        main(["diagnose", str(data), option, str(out), "--force"])

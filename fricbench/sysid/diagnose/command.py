@@ -114,6 +114,9 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     twin.add_argument("--env-mass", type=float, default=1.0, metavar="KG",
                       help="a run without an effort is modelled per unit mass: the twin's "
                            "moving mass, kg (default: 1)")
+    parser.add_argument("--force", action="store_true",
+                        help="overwrite an existing --json or --env-out file (without it, an "
+                             "existing file is refused with exit status 2, before any work)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     return parser
 
@@ -192,6 +195,12 @@ def run(args: argparse.Namespace) -> int:
         if out and os.path.dirname(os.path.abspath(out)) and not os.path.isdir(
                 os.path.dirname(os.path.abspath(out))):
             print(f"error: --{name} {out}: the directory does not exist", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    for name in ("json", "env_out"):
+        out = getattr(args, name, None)
+        if out and os.path.exists(out) and not getattr(args, "force", False):
+            print(f"error: --{name.replace('_', '-')} {out}: the file exists; pass --force to "
+                  "overwrite it, or give another file name", file=sys.stderr)
             return EXIT_BAD_INPUT
     problem = _check_options(args)
     if problem:
