@@ -367,3 +367,45 @@ def test_diagnose_refuses_an_existing_output_without_force(
     # with --force the option check passes and the run goes on to read the data
     with pytest.raises(AssertionError, match="read the data"):
         main(["diagnose", str(data), option, str(out), "--force"])
+
+
+@pytest.fixture
+def no_diagnosis(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Path:
+    """A data file whose reading fails the test: the options must be refused before it."""
+    import fricbench.sysid.io
+
+    def no_load(*args: object, **kwargs: object) -> None:
+        raise AssertionError("read the data before checking the options")
+
+    monkeypatch.setattr(fricbench.sysid.io, "load_run", no_load)
+    data = tmp_path / "run.csv"
+    data.write_text("t,x_ref,x,u\n0,0,0,0\n")
+    return data
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--env-id", "fricbench/PaperAxis-v0"],
+     "--env-id fricbench/PaperAxis-v0: already registered (by "),
+    (["--env-id", "CartPole-v1"], "--env-id CartPole-v1: expected 'namespace/Name-vN'"),
+    (["--env-id", "phys2d/CartPole-v1"],
+     "--env-id phys2d/CartPole-v1: already registered (in Gymnasium's registry)"),
+    (["--env-out-default"], "default id fricbench/PaperAxis-v0 (from the file name) is already "
+                            "registered"),
+])
+def test_diagnose_refuses_a_taken_twin_id(no_diagnosis: Path, tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str],
+                                          extra: list[str], message: str) -> None:
+    out = tmp_path / "twin.toml"
+    if extra == ["--env-out-default"]:
+        out, extra = tmp_path / "paper_axis.toml", []
+    assert main(["diagnose", str(no_diagnosis), "--env-out", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "local/" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_diagnose_takes_a_twin_id_in_the_users_namespace(no_diagnosis: Path,
+                                                        tmp_path: Path) -> None:
+    with pytest.raises(AssertionError, match="read the data"):  # the options passed
+        main(["diagnose", str(no_diagnosis), "--env-out", str(tmp_path / "mill.toml"),
+              "--env-id", "local/MyMill-v0"])

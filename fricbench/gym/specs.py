@@ -1,9 +1,10 @@
 """Environment specs: one TOML file per env id in ``envs/``, registered with Gymnasium.
 
-A spec file holds ``id`` (``fricbench/Name-vN``), ``description``, ``benchmark`` (scored by
-``fricbench bench``, a TOML boolean, default true), ``fit_on`` (the env whose training setup
-compensators learn from, default itself: a different id makes the env a generalisation case),
-``[axis]`` (sections ``controller``, ``mechanics``, ``friction``, ``effects`` as in
+A spec file holds ``id`` (``namespace/Name-vN``: ``fricbench/`` for the shipped specs, a
+user's own namespace such as ``local/Mill-v0`` for theirs), ``description``, ``benchmark``
+(scored by ``fricbench bench``, a TOML boolean, default true), ``fit_on`` (the env whose training
+setup compensators learn from, default itself: a different id makes the env a generalisation
+case), ``[axis]`` (sections ``controller``, ``mechanics``, ``friction``, ``effects`` as in
 :meth:`Axis.from_dict`) and ``[task]`` (:meth:`TaskConfig.from_dict`: trajectories, action,
 reward, observation, randomize). Dropping a new TOML file into ``envs/`` (or a folder named by
 ``FRICBENCH_ENV_PATH``) adds an environment.
@@ -82,6 +83,8 @@ __all__ = [
     "MAX_REFERENCE_SAMPLES",
     "MAX_SPEC_BYTES",
     "MAX_TRAJECTORIES",
+    "ENV_ID_PATTERN",
+    "ENV_ID_FORM",
     "PROBE_TS",
     "OVERRIDE_KEYWORDS",
     "EnvKeywordError",
@@ -112,7 +115,14 @@ PROBE_TS = 0.1
 
 _TOP_KEYS = ("id", "description", "benchmark", "fit_on", "axis", "task")
 _AXIS_KEYS = ("controller", "mechanics", "friction", "effects")
-_ID = re.compile(r"fricbench/[A-Za-z0-9_.:-]+-v[0-9]+")
+ENV_ID_PATTERN = re.compile(r"[A-Za-z0-9_:-]+/[A-Za-z0-9_.:-]+-v[0-9]+")
+"""The form of a spec's env id, ``namespace/Name-vN``: Gymnasium's id grammar
+(``gymnasium.envs.registration.ENV_ID_RE``) with the namespace and the version required, in
+ASCII. The shipped specs use ``fricbench/``; a user's twin belongs in a namespace of its own."""
+ENV_ID_FORM = ("'namespace/Name-vN' such as 'local/MyMill-v0' (letters, digits, '_', ':', '-' "
+               "in the namespace, also '.' in the name, then a version such as -v0)")
+"""What :data:`ENV_ID_PATTERN` expects, for error messages."""
+_ID = ENV_ID_PATTERN
 _MAX_NAME = 200  # longest id or string value accepted
 _MAX_LIST = 1000  # longest array accepted as a trajectory parameter
 _MAX_SHOWN = 10  # problems spelled out in one message
@@ -217,8 +227,8 @@ def load_spec(path: str | Path, *, check_trajectories: bool = True) -> EnvSpecFi
     _check_keys("", data, _TOP_KEYS, problems)
     env_id = data.get("id")
     if not (isinstance(env_id, str) and _ID.fullmatch(env_id)):
-        problems.append(f"id={_show(env_id)}: expected a string 'fricbench/Name-vN'"
-                        if "id" in data else "id: missing; expected 'fricbench/Name-vN'")
+        problems.append(f"id={_show(env_id)}: expected a string {ENV_ID_FORM}"
+                        if "id" in data else f"id: missing; expected {ENV_ID_FORM}")
     description = data.get("description", "")
     if not isinstance(description, str):
         problems.append(f"description={_show(description)}: expected a string")
@@ -227,7 +237,7 @@ def load_spec(path: str | Path, *, check_trajectories: bool = True) -> EnvSpecFi
         problems.append(f"benchmark={_show(benchmark)}: expected true or false (a TOML boolean)")
     fit_on = data.get("fit_on", env_id)
     if "fit_on" in data and not (isinstance(fit_on, str) and _ID.fullmatch(fit_on)):
-        problems.append(f"fit_on={_show(fit_on)}: expected an env id 'fricbench/Name-vN'")
+        problems.append(f"fit_on={_show(fit_on)}: expected an env id {ENV_ID_FORM}")
     axis = _check_axis(data.get("axis", {}), problems)
     task = _check_task(data.get("task", {}), axis, problems)
     if task is not None and axis is not None and check_trajectories:

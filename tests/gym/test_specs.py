@@ -144,6 +144,28 @@ def test_good_user_spec_next_to_a_bad_one_is_registered(
     env.close()
 
 
+def test_a_user_namespace_is_registered(tmp_path: Path,
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "mill.toml").write_text('id = "local/MyMill-v0"\n[task]\n'
+                                        'trajectories = [{ id = "random", duration = 2.0 }]\n')
+    monkeypatch.setenv("FRICBENCH_ENV_PATH", str(tmp_path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EnvSpecWarning)
+        ids = register_envs()
+    assert "local/MyMill-v0" in ids
+    env = gym.make("local/MyMill-v0")
+    env.reset(seed=0)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ["MyMill-v0", "local/MyMill", "local/sub/MyMill-v0",
+                                    "local/My Mill-v0"])
+def test_an_id_without_namespace_or_version_is_refused(env_id: str, tmp_path: Path) -> None:
+    (tmp_path / "mill.toml").write_text(f'id = "{env_id}"\n')
+    with pytest.raises(specs.EnvSpecError, match="expected a string 'namespace/Name-vN'"):
+        specs.load_spec(tmp_path / "mill.toml")
+
+
 def test_shipped_specs_pass_every_check(monkeypatch: pytest.MonkeyPatch,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.delenv("FRICBENCH_ENV_PATH", raising=False)

@@ -116,7 +116,7 @@ def test_every_plant_column_has_a_place_in_the_env() -> None:
 
 
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--env-id", "Twin-v0"], "--env-id Twin-v0: expected 'fricbench/Name-vN'"),
+    (["--env-id", "Twin-v0"], "--env-id Twin-v0: expected 'namespace/Name-vN'"),
     (["--env-id", "fricbench/Twin"], "--env-id fricbench/Twin: expected"),
     (["--env-out-missing"], "the directory"),
     (["--env-out-suffix"], "expected a file name ending in .toml"),

@@ -100,8 +100,9 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
                       help="write the twin's env spec here (put its folder on "
                            "FRICBENCH_ENV_PATH, then gym.make(ID) or fricbench bench --envs ID)")
     twin.add_argument("--env-id", metavar="ID",
-                      help="the twin's env id, fricbench/Name-vN (default: from the file name, "
-                           "twin.toml -> fricbench/Twin-v0)")
+                      help="the twin's env id, namespace/Name-vN, in a namespace of your "
+                           "own such as local/MyMill-v0; an id already registered is refused "
+                           "(default: from the file name, twin.toml -> fricbench/Twin-v0)")
     twin.add_argument("--env-description", metavar="TEXT",
                       help="the twin's description (default: the run it comes from, the effects "
                            "found and what it does not model)")
@@ -306,8 +307,24 @@ def _twin_id(args: argparse.Namespace) -> str:
     return f"fricbench/{name or 'Twin'}-v0"
 
 
+def _registered_by(env_id: str, out: str) -> str | None:
+    """Where ``env_id`` is registered already (a spec file or Gymnasium), or None; the spec
+    file ``out`` itself (a twin written again) does not count."""
+    import gymnasium as gym
+
+    from fricbench.gym import env_registry, register_envs
+
+    register_envs()
+    if env_id in env_registry.ids():
+        path = env_registry.spec(env_id).data.path
+        same = os.path.abspath(path) == os.path.abspath(out)
+        return None if same else f"by {path}"
+    return "in Gymnasium's registry" if env_id in gym.registry else None
+
+
 def _check_twin_options(args: argparse.Namespace) -> str | None:
     """The first problem with the twin options (``--env-out`` and its companions), or None."""
+    from fricbench.gym.specs import ENV_ID_FORM
     from fricbench.sysid.diagnose.twin import check_env_id
 
     out = getattr(args, "env_out", None)
@@ -325,11 +342,20 @@ def _check_twin_options(args: argparse.Namespace) -> str | None:
     folder = os.path.dirname(os.path.abspath(out))
     if not os.path.isdir(folder):
         return f"--env-out {out}: the directory {folder} does not exist"
+    env_id = _twin_id(args)
     try:
-        check_env_id(_twin_id(args))
+        check_env_id(env_id)
     except ValueError:
-        return (f"--env-id {_twin_id(args)}: expected 'fricbench/Name-vN' (letters, digits, "
-                "'_', '.', ':', '-' in the name, then a version such as -v0)")
+        return f"--env-id {env_id}: expected {ENV_ID_FORM}"
+    taken = _registered_by(env_id, out)
+    if taken is not None:
+        own = "local/" + env_id.split("/", 1)[1]
+        if args.env_id is None:
+            return (f"--env-out {out}: the twin's default id {env_id} (from the file name) is "
+                    f"already registered ({taken}); give --env-id ID, an id of your own such "
+                    f"as {own}")
+        return (f"--env-id {env_id}: already registered ({taken}); expected an id of your own, "
+                f"such as {own}")
     for name, value in (("--effort-gain", args.effort_gain), ("--effort-limit",
                                                               args.effort_limit),
                         ("--env-mass", args.env_mass)):

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from collections.abc import Callable, Mapping
 from dataclasses import asdict
 from typing import Any
@@ -43,14 +42,13 @@ import numpy as np
 from fricbench.axis import Axis, Effects
 from fricbench.axis import kernel as K
 from fricbench.axis import plant as PL
+from fricbench.gym.specs import ENV_ID_FORM, ENV_ID_PATTERN
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
 from fricbench.sysid.diagnose.effects import describe_parameters
 
 __all__ = ["ENV_ID_PATTERN", "PLANT_PLACES", "TwinError", "check_env_id", "twin_spec",
            "twin_toml"]
 
-ENV_ID_PATTERN = re.compile(r"fricbench/[A-Za-z0-9_.:-]+-v[0-9]+")
-"""The form of an env id (as :mod:`fricbench.gym.specs` reads it)."""
 
 _F = "force"  # scaled by the effort gain (N per effort unit)
 _SCALED = (_F,)
@@ -117,10 +115,10 @@ class TwinError(ValueError):
 
 
 def check_env_id(env_id: str) -> str:
-    """``env_id`` if it is a valid env id ``fricbench/Name-vN``, else ``ValueError``."""
+    """``env_id`` if it is a valid env id ``namespace/Name-vN``
+    (:data:`fricbench.gym.specs.ENV_ID_PATTERN`), else ``ValueError``."""
     if not isinstance(env_id, str) or not ENV_ID_PATTERN.fullmatch(env_id):
-        raise ValueError(f"env_id={env_id!r}: expected 'fricbench/Name-vN' (letters, digits, "
-                         "'_', '.', ':', '-' in the name, then a version such as -v0)")
+        raise ValueError(f"env_id={env_id!r}: expected {ENV_ID_FORM}")
     return env_id
 
 
