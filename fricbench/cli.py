@@ -294,6 +294,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from fricbench.compensators import compensator_registry
     from fricbench.gym import env_ids, get_spec
 
+    if args.jobs != -1 and args.jobs < 1:
+        print(f"fricbench bench: error: --jobs {args.jobs}: expected a positive number of "
+              "processes, or -1 for one per core", file=sys.stderr)
+        return 2
     envs = args.envs or env_ids(benchmark_only=True)
     comps = args.compensators or compensator_registry.ids()
     from_cli: set[str] = set()
@@ -483,7 +487,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: %(default)s)")
     p.add_argument("--address", help="Ray cluster address (default: a local instance)")
     p.add_argument("--jobs", type=int, default=2,
-                   help="parallel processes with --backend joblib (default: %(default)s)")
+                   help="parallel processes with --backend joblib, -1 for one per core "
+                        "(default: %(default)s)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="folder of the leaderboard tables and plots (default: leaderboards, "
                         "leaderboards/nominal with --nominal)")

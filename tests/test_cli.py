@@ -409,3 +409,33 @@ def test_diagnose_takes_a_twin_id_in_the_users_namespace(no_diagnosis: Path,
     with pytest.raises(AssertionError, match="read the data"):  # the options passed
         main(["diagnose", str(no_diagnosis), "--env-out", str(tmp_path / "mill.toml"),
               "--env-id", "local/MyMill-v0"])
+
+
+@pytest.mark.parametrize(("extra", "expected"), [
+    (["--seeds", "0", "3", "0"], "--seeds 0: given twice"),
+    (["--seeds", "0", "--compensators", "none", "none"], "--compensators none: given twice"),
+    (["--seeds", "0", "--jobs", "0"], "--jobs 0: expected a positive number of processes, or "
+                                      "-1 for one per core"),
+    (["--seeds", "0", "--jobs", "-2"], "--jobs -2: expected a positive number"),
+])
+def test_bench_refuses_repeats_and_bad_jobs_before_fitting(
+        extra: list[str], expected: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    def no_fit(*args: object) -> None:
+        raise AssertionError("fitted before checking the arguments")
+
+    monkeypatch.setattr(runner, "fit_compensators", no_fit)
+    argv = ["bench", "--envs", "fricbench/PaperAxis-v0", "--trajectories", "s_curve",
+            "--out", str(tmp_path), *extra]
+    if "--compensators" not in extra:
+        argv += ["--compensators", "none"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_run_benchmark_checks_n_jobs() -> None:
+    with pytest.raises(ValueError, match="n_jobs=0: expected a positive number"):
+        next(runner.run_benchmark(["fricbench/PaperAxis-v0"], ["none"], [0], n_jobs=0,
+                                  progress=False))

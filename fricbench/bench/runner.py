@@ -557,9 +557,10 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
     BenchConfigError
         Naming the parameter and the value: an unknown env, compensator or trajectory id (with
         near matches), a trajectory whose number of axes an env does not drive, a seed that is
-        not an integer >= 0, or an empty list; in ``comp_kwargs``, settings of an unknown
-        compensator or one not run, a keyword its constructor does not take (with near
-        matches and the accepted keywords), or a value its constructor refuses (its message).
+        not an integer >= 0, an empty list, or an id or seed given twice; in ``comp_kwargs``,
+        settings of an unknown compensator or one not run, a keyword its constructor does not
+        take (with near matches and the accepted keywords), or a value its constructor refuses
+        (its message).
     """
     known_envs = registered_env_ids()
     # precomp:<predictor id> names a pre-compensation with any registered predictor
@@ -581,6 +582,16 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
     for seed in seeds:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise BenchConfigError("seeds", seed, "expected an integer >= 0")
+    given: tuple[tuple[str, Sequence[object]], ...] = (
+        ("env_ids", env_ids), ("comp_ids", comp_ids), ("seeds", seeds),
+        ("trajectories", trajectories or ()))
+    for name, items in given:
+        seen: set[object] = set()
+        for item in items:
+            if item in seen:
+                raise BenchConfigError(name, item, "given twice; expected each once (a repeat "
+                                                   "would score the same runs twice)")
+            seen.add(item)
     if comp_kwargs is not None:
         _check_comp_kwargs(comp_kwargs, comp_ids, known_comps)
     tasks = []
@@ -646,6 +657,9 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
 
     if backend not in ("joblib", "ray"):
         raise ValueError(f"backend={backend!r}: expected 'joblib' or 'ray'")
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or (n_jobs < 1 and n_jobs != -1):
+        raise ValueError(f"n_jobs={n_jobs!r}: expected a positive number of processes, or -1 "
+                         "for one per core")
     tasks = plan_benchmark(env_ids, comp_ids, seeds, trajectories, comp_kwargs)
     settings = {c: dict(kw) for c, kw in (comp_kwargs or {}).items() if kw}
     n_fits = len({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids}) * (

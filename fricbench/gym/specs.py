@@ -583,9 +583,21 @@ def _shipped_files() -> list[Path]:
     return sorted(Path(str(shipped)).glob("*.toml"))
 
 
+_reported_folders: set[str] = set()  # FRICBENCH_ENV_PATH entries already warned about
+
+
 def _user_files() -> list[Path]:
+    """The ``*.toml`` files of the ``FRICBENCH_ENV_PATH`` folders; a folder that is missing
+    (or not a folder) is skipped, reported once with an :class:`EnvSpecWarning`."""
     files: list[Path] = []
     for folder in filter(None, os.environ.get("FRICBENCH_ENV_PATH", "").split(os.pathsep)):
+        if not Path(folder).is_dir():
+            what = "is not a folder" if Path(folder).exists() else "does not exist"
+            if folder not in _reported_folders:
+                _reported_folders.add(folder)
+                warnings.warn(f"FRICBENCH_ENV_PATH: {folder} {what}; no env specs read from "
+                              "it", EnvSpecWarning, stacklevel=2)
+            continue
         files.extend(sorted(Path(folder).glob("*.toml")))
     return files
 

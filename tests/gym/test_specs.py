@@ -4,6 +4,7 @@ before."""
 
 from __future__ import annotations
 
+import os
 import sys
 import tomllib
 import warnings
@@ -253,3 +254,16 @@ def test_env_registry_takes_specs_only() -> None:
     assert env_registry.register_spec(spec) == spec.id  # the same file again: nothing to do
     with pytest.raises(ValueError, match="already defined by"):
         env_registry.register_spec(replace(spec, path="elsewhere.toml"))
+
+
+def test_a_missing_env_path_folder_is_reported(tmp_path: Path,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    missing, a_file = tmp_path / "nowhere", tmp_path / "a.toml"
+    a_file.write_text("")
+    monkeypatch.setenv("FRICBENCH_ENV_PATH", f"{missing}{os.pathsep}{a_file}")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert set(register_envs()) == set(SHIPPED)
+    messages = [str(w.message) for w in caught if issubclass(w.category, EnvSpecWarning)]
+    assert f"FRICBENCH_ENV_PATH: {missing} does not exist; no env specs read from it" in messages
+    assert f"FRICBENCH_ENV_PATH: {a_file} is not a folder; no env specs read from it" in messages
