@@ -664,14 +664,17 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
     settings = {c: dict(kw) for c, kw in (comp_kwargs or {}).items() if kw}
     n_fits = len({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids}) * (
         1 if nominal else len(set(seeds)))
-    bar = tqdm(total=len(tasks) + n_fits, desc="bench", unit="run", disable=not progress)
+    # two bars: the fits, then the runs (the bench bar counts the runs the summary counts)
+    bars = [tqdm(total=n_fits, desc="fit", unit="fit", disable=not progress)]
     try:
         def tick(result: Any) -> None:
-            bar.update(_progress_weight(result))
+            bars[-1].update(_progress_weight(result))
 
         map_fn = _joblib_map(n_jobs, tick) if backend == "joblib" else _ray_map(address, tick)
         fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn, settings,
                                   None if nominal else seeds)
+        bars[0].close()
+        bars.append(tqdm(total=len(tasks), desc="bench", unit="run", disable=not progress))
         first_seed = min(seeds)
         # one job per cell (env, compensator, trajectory): its seeds stepped together
         cells: dict[tuple[str, str, str], list[BenchTask]] = {}
@@ -685,4 +688,5 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
                 rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
                 yield rec
     finally:
-        bar.close()
+        for bar in bars:
+            bar.close()

@@ -409,3 +409,30 @@ def test_a_circle_trace_is_the_scored_contour_error() -> None:
     peak = float(np.max(np.abs(rec.trace_error)))
     # subsampled: at most the full-rate maximum, and close to it
     assert 0.9 * rec.max_error <= peak <= rec.max_error * (1 + 1e-12)
+
+
+def test_the_bench_bar_counts_the_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    import tqdm
+
+    bars: list[Any] = []
+
+    class Recorder(tqdm.tqdm):  # type: ignore[misc]
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            kwargs["disable"] = True
+            super().__init__(*args, **kwargs)
+            self.counted = 0
+            self.label = kwargs.get("desc")
+            self.expected = kwargs.get("total")
+            bars.append(self)
+
+        def update(self, n: float | None = 1) -> bool | None:
+            self.counted += int(n or 0)
+            return super().update(n)
+
+    monkeypatch.setattr(tqdm, "tqdm", Recorder)
+    records = list(run_benchmark([PAPER], ["none", "ilc"], [0, 1], ["s_curve"], n_jobs=1))
+    by_label = {b.label: b for b in bars}
+    assert set(by_label) == {"fit", "bench"}
+    # 2 compensators x 2 seeds: 4 fits, then 4 runs, each bar counting its own
+    assert by_label["fit"].expected == by_label["fit"].counted == 4
+    assert by_label["bench"].expected == by_label["bench"].counted == len(records) == 4
