@@ -50,6 +50,7 @@ from fricbench.bench.ballbar import plot_ballbar
 from fricbench.bench.runner import EpisodeRecord
 from fricbench.bench.statistics import (
     CONFIDENCE,
+    MIN_SEEDS,
     N_RESAMPLES,
     Interval,
     cell_rng,
@@ -284,6 +285,19 @@ def ranking(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequence[st
     return out
 
 
+def _seeds_caveat(n_seeds: int) -> str:
+    """What the intervals of ``n_seeds`` seeds are worth, for the tables' headings ("" from
+    :data:`~fricbench.bench.statistics.MIN_SEEDS` seeds on)."""
+    if n_seeds <= 1:
+        return " (1 seed: no interval exists; ranked by the point value)"
+    if n_seeds < MIN_SEEDS:
+        held = 100.0 * (1.0 - 2.0 ** (1 - n_seeds))
+        return (f" (only {n_seeds} seeds: a {CONFIDENCE * 100:g} % interval of a median needs "
+                f"at least {MIN_SEEDS}; the range of {n_seeds} holds the median {held:.0f} % "
+                "of the time: read the intervals and n.s. as rough)")
+    return ""
+
+
 def _ranking_table(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequence[str],
                    seeds: Sequence[int], label: str, cats: dict[str, str]) -> list[str]:
     ranked = ranking(rows, comps, trajs, seeds, label)
@@ -295,12 +309,13 @@ def _ranking_table(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequ
     for i, (c, ci, diff) in enumerate(ranked):
         if diff is None:
             vs = ""
-        elif diff.excludes_zero():
+        elif diff.excludes_zero() or not diff.has_ci:  # no interval: nothing to call n.s.
             vs = diff.text(".1f", sign=True)
         else:
             vs = diff.text(".1f", sign=True) + " **n.s.**"
-        tie = i > 0 and ranked[i - 1][2] is not None and \
-            not ranked[i - 1][2].excludes_zero()  # type: ignore[union-attr]
+        # a tie only where an interval says so; without one the point values rank
+        prev = ranked[i - 1][2] if i > 0 else None
+        tie = prev is not None and prev.has_ci and not prev.excludes_zero()
         shown = f"= {rank}" if tie else str(i + 1)
         if not tie:
             rank = i + 1
@@ -353,10 +368,13 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
               "mean over trajectories of the cut against `none`. *To the next*: the median "
               "over seeds of the per-seed difference to the next one down and its interval "
               "(paired bootstrap: seeds share plants); **n.s.** when the interval contains 0, "
-              "and the next one then shares the rank (`= k`).\n\n")
+              "and the next one then shares the rank (`= k`); without an interval (1 seed), by "
+              "the point value.\n\n")
+    caveat = _seeds_caveat(len(seeds))
+    ci_head = f" [{CONFIDENCE * 100:g} % CI]" if len(seeds) > 1 else ""
 
     def table(title: str, key: str, fmt: str, sign: bool, extra: bool) -> None:
-        out.write(f"## {title}\n\n")
+        out.write(f"## {title}{ci_head}{caveat}\n\n")
         head = "| compensator | category | " + " | ".join(trajs) + " |"
         if extra:
             head += " reversal peak (um, median) |" + (" circular dev. (um) |" if circle else "")
@@ -379,11 +397,11 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
             out.write(line + "\n")
         out.write("\n")
 
-    table("Max abs(e) (um): median [95 % CI]", "max_um", ".2f", False, True)
-    table("Cut of max abs(e) against `none` (%): median [95 % CI]", "improvement_max_pct",
-          ".1f", True, False)
-    table("RMS error (um): median [95 % CI]", "rms_um", ".3f", False, False)
-    out.write("## Ranking\n\n### Overall\n\n")
+    table("Max abs(e) (um): median", "max_um", ".2f", False, True)
+    table("Cut of max abs(e) against `none` (%): median", "improvement_max_pct", ".1f", True,
+          False)
+    table("RMS error (um): median", "rms_um", ".3f", False, False)
+    out.write(f"## Ranking{caveat}\n\n### Overall\n\n")
     out.writelines(_ranking_table(rows, comps, trajs, seeds, "overall", cats))
     for cat in CATEGORIES:
         members = [c for c in comps if cats[c] == cat and c != "none"]

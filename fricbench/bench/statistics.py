@@ -19,15 +19,37 @@ from scipy import stats
 
 __all__ = [
     "CONFIDENCE",
+    "MIN_SEEDS",
     "N_RESAMPLES",
     "Interval",
     "cell_rng",
     "median_ci",
+    "min_seeds",
     "paired_difference",
 ]
 
 CONFIDENCE = 0.95
 N_RESAMPLES = 9999
+
+
+def min_seeds(confidence: float = CONFIDENCE) -> int:
+    """The fewest seeds whose percentile bootstrap interval of the median can hold the true
+    median with probability ``confidence``.
+
+    The interval never leaves the sample's range [min, max], and that range misses the
+    median of a continuous distribution when every value falls on one side of it:
+    P(min <= median <= max) = 1 - 2^(1 - n). Fewer seeds give an interval that claims
+    ``confidence`` it cannot have (n = 2: 50 %, n = 5: 94 %).
+    """
+    n = 1
+    # 1 - 2^(1 - n) >= confidence
+    while 1.0 - 2.0 ** (1 - n) < confidence:
+        n += 1
+    return n
+
+
+MIN_SEEDS = min_seeds(CONFIDENCE)
+"""Fewest seeds whose 95 % interval can mean 95 % (6): below it the tables carry a caveat."""
 
 
 @dataclass(frozen=True)

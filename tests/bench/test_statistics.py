@@ -10,7 +10,13 @@ import pytest
 
 from fricbench.bench.leaderboard import ranking, write_leaderboards
 from fricbench.bench.runner import EpisodeRecord
-from fricbench.bench.statistics import cell_rng, median_ci, paired_difference
+from fricbench.bench.statistics import (
+    MIN_SEEDS,
+    cell_rng,
+    median_ci,
+    min_seeds,
+    paired_difference,
+)
 
 PAPER = "fricbench/PaperAxis-v0"
 
@@ -115,3 +121,54 @@ def _is_float(x: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def test_min_seeds_is_where_the_range_can_hold_the_median() -> None:
+    # P(min <= median <= max) = 1 - 2^(1 - n): 0.9375 at 5 seeds, 0.969 at 6
+    assert min_seeds(0.95) == MIN_SEEDS == 6
+    assert min_seeds(0.5) == 2
+
+
+def _board(tmp_path: Path, n_seeds: int, cut: dict[str, float]) -> str:
+    """The markdown of ``n_seeds`` seeds where each compensator keeps ``1 - cut`` of none's
+    max |e| (a seed-dependent wobble so that the intervals are not degenerate)."""
+    recs = []
+    for s in range(n_seeds):
+        base = 20.0 + s
+        recs.append(_rec("none", "curve", s, base))
+        recs += [_rec(c, "curve", s, (1.0 - k + 0.01 * s) * base) for c, k in cut.items()]
+    write_leaderboards(recs, tmp_path, "fricbench bench", "abc", {PAPER: ("d", PAPER)})
+    return (tmp_path / "PaperAxis-v0.md").read_text()
+
+
+def _overall(md: str) -> list[list[str]]:
+    table = md.split("### Overall")[1].split("###")[0]
+    return [[c.strip() for c in line.split("|")[1:-1]] for line in table.splitlines()
+            if line.startswith("| ") and "rank" not in line]
+
+
+def test_one_seed_ranks_by_the_point_value_and_says_there_is_no_interval(
+        tmp_path: Path) -> None:
+    md = _board(tmp_path, 1, {"kalman": 0.6, "ilc": 0.9, "friction-ff": -1.01})
+    ranks = [(row[0], row[1]) for row in _overall(md)]
+    assert ranks == [("1", "`ilc`"), ("2", "`kalman`"), ("3", "`none`"),
+                     ("4", "`friction-ff`")]
+    assert not any("n.s." in row[4] for row in _overall(md))
+    assert "## Ranking (1 seed: no interval exists; ranked by the point value)" in md
+    assert "## Max abs(e) (um): median (1 seed: no interval exists" in md
+    assert "95 % CI" not in md
+
+
+@pytest.mark.parametrize(("n_seeds", "held"), [(2, "50"), (5, "94")])
+def test_few_seeds_carry_the_caveat_in_the_headings(tmp_path: Path, n_seeds: int,
+                                                    held: str) -> None:
+    md = _board(tmp_path, n_seeds, {"kalman": 0.6, "ilc": 0.9})
+    caveat = (f"(only {n_seeds} seeds: a 95 % interval of a median needs at least 6; the range "
+              f"of {n_seeds} holds the median {held} % of the time")
+    assert f"## Max abs(e) (um): median [95 % CI] {caveat}" in md
+    assert f"## Ranking {caveat}" in md
+
+
+def test_enough_seeds_carry_no_caveat(tmp_path: Path) -> None:
+    md = _board(tmp_path, MIN_SEEDS, {"kalman": 0.6})
+    assert "## Max abs(e) (um): median [95 % CI]\n" in md and "## Ranking\n" in md
