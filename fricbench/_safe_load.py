@@ -15,6 +15,8 @@ from __future__ import annotations
 import io
 import json
 import os
+import pickle
+import re
 import stat
 import struct
 import zipfile
@@ -206,6 +208,22 @@ def read_members(data: bytes, where: str, expected: Collection[str],
         raise UnsafeFileError(f"{where}: not a valid zip archive ({exc})") from None
 
 
+def _refusal(message: str) -> str:
+    """Why torch's weights-only unpickler refused a file, without its advice (to load the file
+    with ``weights_only=False``, or to allow-list the object it names: either runs the file's
+    code)."""
+    # torch: "... unsupported GLOBAL posix.system whose module posix is blocked" or
+    # "Unsupported global: GLOBAL __main__.Obj was not an allowed global by default"
+    named = re.search(r"GLOBAL ([\w.]+)", message)
+    if named:
+        return (f"it holds a reference to the Python object {named.group(1)}, which loading "
+                "would import and may call")
+    detail = re.search(r"WeightsUnpickler error: ([^\n]*?)(?:\s*Please use.*)?$", message,
+                       re.MULTILINE)
+    reason = detail.group(1).strip() if detail else "its pickle holds more than tensors"
+    return f"not a plain weights file ({reason})"
+
+
 def load_tensors(raw: bytes, where: str, limit: int = MAX_MODEL_BYTES) -> dict[str, torch.Tensor]:
     """Load a ``torch.save`` of a ``dict[str, Tensor]`` with ``weights_only=True``, bounded.
 
@@ -228,6 +246,10 @@ def load_tensors(raw: bytes, where: str, limit: int = MAX_MODEL_BYTES) -> dict[s
                               f"archive: {exc})") from None
     try:
         state = torch.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as exc:  # torch's weights-only unpickler refused the file
+        raise UnsafeFileError(f"{where}: refused: {_refusal(str(exc))}; fricbench reads model "
+                              "files as plain tensors only (torch.load with weights_only=True) "
+                              "and never runs code from a file") from None
     except Exception as exc:  # noqa: BLE001 - torch raises many unrelated types on corrupt input
         raise UnsafeFileError(f"{where}: unreadable torch weights "
                               f"({type(exc).__name__}: {exc})") from None
