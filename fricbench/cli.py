@@ -155,7 +155,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     res = simulate(axis, ref, seed=args.seed, x0=x0, v0=v0)
     if args.csv:
         cols = write_csv(res, args.csv)
-        print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (s, m, m, N)")
+        print(f"wrote {args.csv}: {res.t.size} rows, columns {', '.join(cols)} (t in s, "
+              "positions in m)")
     if args.plot:
         plot_run(res, f"{args.env} on {args.trajectory}", args.plot)
         print(f"wrote {args.plot}")
@@ -433,7 +434,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seed of the measurement noise, where the env has any "
                         "(default: %(default)s)")
     p.add_argument("--csv", metavar="FILE.csv",
-                   help="write the run as columns t, x_ref, x, u (s, m, m, N)")
+                   help="write the run as columns t, x_ref, x, 'u [N]' (s, m, m, N; the "
+                        "effort's unit in its name, where diagnose reads it)")
     p.add_argument("--plot", metavar="FILE.png",
                    help="write a PNG of reference, position and error")
     p.add_argument("--polar", metavar="FILE.png",

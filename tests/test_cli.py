@@ -95,7 +95,7 @@ def test_simulate_writes_csv_and_plot(tmp_path: Path) -> None:
                  "--csv", str(csv_path), "--plot", str(png)]) == 0
     with csv_path.open() as fh:
         rows = list(csv.reader(fh))
-    assert rows[0] == ["t", "x_ref", "x", "u"]
+    assert rows[0] == ["t", "x_ref", "x", "u [N]"]
     assert len(rows) > 2000
     assert png.stat().st_size > 10_000
 
@@ -439,3 +439,67 @@ def test_run_benchmark_checks_n_jobs() -> None:
     with pytest.raises(ValueError, match="n_jobs=0: expected a positive number"):
         next(runner.run_benchmark(["fricbench/PaperAxis-v0"], ["none"], [0], n_jobs=0,
                                   progress=False))
+
+
+@pytest.fixture(scope="module")
+def simulated_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("sim") / "run.csv"
+    assert main(["simulate", "--trajectory", "s_curve", "--csv", str(path)]) == 0
+    return path
+
+
+def test_simulate_csv_states_its_effort_unit_for_the_loader(simulated_csv: Path) -> None:
+    from fricbench.sysid.io import load_run
+
+    run = load_run(simulated_csv)  # the default columns t, x_ref, x, u
+    assert run.columns["u"] == "u [N]" and run.u is not None
+    assert run.units["effort"] == "N" and run.units["effort_stated"] == "yes"
+    with simulated_csv.open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert np.array_equal(run.u, [float(r["u [N]"]) for r in rows])
+    assert np.array_equal(run.x, [float(r["x"]) for r in rows])
+
+
+def _diagnose_until_the_fit(argv: list[str], monkeypatch: pytest.MonkeyPatch,
+                            capsys: pytest.CaptureFixture[str]) -> str:
+    """The stderr of ``diagnose`` up to the fit (which is stopped): the loader's warnings."""
+    import fricbench.sysid.diagnose.diagnosis as diagnosis
+
+    def stop(*args: object, **kwargs: object) -> None:
+        raise ValueError("stopped before the fit")
+
+    monkeypatch.setattr(diagnosis, "diagnose", stop)
+    assert main(["diagnose", *argv]) == 1
+    err = capsys.readouterr().err
+    assert "stopped before the fit" in err
+    return err
+
+
+def test_diagnosing_simulates_csv_takes_its_effort_unit(
+        simulated_csv: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    err = _diagnose_until_the_fit([str(simulated_csv)], monkeypatch, capsys)
+    assert "--effort-unit" not in err, err
+    err = _diagnose_until_the_fit([str(simulated_csv), "--effort-unit", "A"], monkeypatch,
+                                  capsys)
+    assert "--effort-unit A: column 'u [N]' of " in err and "states N; A is used" in err
+
+
+@pytest.mark.parametrize(("header", "extra", "message"), [
+    ("t [ms],x_ref,x,u", [], "column 't [ms]' states ms; expected a time in s"),
+    ("t,x_ref [mm],x [mm],u", [], "column 'x [mm]' states mm but the positions are read "
+                                  "in m (--position-unit); expected the same unit, such as "
+                                  "--position-unit mm"),
+    ("t,x_ref [mm],x [mm],u", ["--position-unit", "um"], "states mm but the positions are "
+                                                         "read in um"),
+])
+def test_a_stated_unit_that_contradicts_the_options_is_refused(
+        header: str, extra: list[str], message: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "run.csv"
+    rows = [f"{k * 1e-3:g},{np.sin(k / 50):.6g},{np.sin((k - 2) / 50):.6g},{np.cos(k / 7):.4g}"
+            for k in range(2000)]
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    assert main(["diagnose", str(path), *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err

@@ -21,15 +21,20 @@ __all__ = ["ballbar_figure", "plot_ballbar", "plot_run", "radial_deviation", "wr
 
 
 def write_csv(res: SimulationResult, path: str | os.PathLike[str]) -> list[str]:
-    """Write ``t,x_ref,x,u`` (s, m, m, N; more axes as ``x_ref_1,x_1,u_1,...``) atomically.
+    """Write ``t,x_ref,x,u [N]`` (s, m, m, N; more axes as ``x_ref_1,x_1,u_1 [N],...``)
+    atomically.
+
+    The effort's unit is stated in its column's name, where :func:`fricbench.sysid.io.load_run`
+    reads it (the name ``u`` still selects the column); time and positions are in s and m,
+    the loader's defaults.
 
     Returns the column names.
     """
     x_ref, x, u = (np.atleast_2d(a) for a in (res.x_ref, res.x, res.u))
-    cols = ["t", "x_ref", "x", "u"]
+    cols = ["t", "x_ref", "x", "u [N]"]
     data = [res.t, x_ref[0], x[0], u[0]]
     for i in range(1, x_ref.shape[0]):
-        cols += [f"x_ref_{i}", f"x_{i}", f"u_{i}"]
+        cols += [f"x_ref_{i}", f"x_{i}", f"u_{i} [N]"]
         data += [x_ref[i], x[i], u[i]]
     lines = [",".join(cols)]
     lines += [",".join(f"{v:.12g}" for v in row) for row in np.column_stack(data)]

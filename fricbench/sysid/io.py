@@ -119,7 +119,8 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                     *, source: str = "<arrays>", names: dict[str, str | None] | None = None,
                     line_numbers: np.ndarray | None = None,
                     effort_required: bool = True, position_unit: str = "m",
-                    open_loop: bool = False, x_load: np.ndarray | None = None) -> RunData:
+                    open_loop: bool = False, x_load: np.ndarray | None = None,
+                    effort_unit: str | None = None) -> RunData:
     """Check arrays of one run and wrap them in a :class:`RunData`.
 
     Parameters
@@ -149,6 +150,10 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     x_load : array_like, shape (K,), optional
         A second, load-side position (a linear scale beside the motor encoder ``x``), in the
         same unit as ``x``.
+    effort_unit : str, optional
+        The effort's unit as the source states it (``"N"``, ``"A"``): recorded as
+        ``RunData.units["effort"]`` with ``units["effort_stated"] = "yes"``. None: the unit is
+        not known and ``"N"`` is assumed (no ``"effort_stated"``).
 
     Returns
     -------
@@ -173,7 +178,10 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     def where(i: int) -> str:
         return f"line {int(line_numbers[i])}" if line_numbers is not None else f"sample {i}"
 
-    units = {"time": "s", "position": si, "position_logged": unit.name, "effort": "N"}
+    units = {"time": "s", "position": si, "position_logged": unit.name,
+             "effort": effort_unit or "N"}
+    if effort_unit is not None and u is not None:
+        units["effort_stated"] = "yes"  # by the source, not assumed
     if x_load is not None:
         names.setdefault("x_load", "x_load")
     clean, ts = validate_run_arrays(
@@ -397,8 +405,11 @@ def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
     time, reference, position : str or int
         Columns of time (s), reference position and measured position (in
         ``position_unit``): a header name, or a 0-based index (an int, or a string of digits
-        that is not a header name: ``"0"`` is the first column). ``time`` None: no time
-        column (then ``sample_time`` is required). ``reference`` None: an open-loop run with
+        that is not a header name: ``"0"`` is the first column). A header may state a
+        column's unit in brackets, ``x [mm]``: the name alone (``x``) selects it, a time
+        column must then be in s and a position column in ``position_unit``, and the effort's
+        unit is read from it (``u [N]``, as ``fricbench simulate`` writes). ``time`` None: no
+        time column (then ``sample_time`` is required). ``reference`` None: an open-loop run with
         no reference; ``x_ref`` is then the measured position (nothing tracks it).
     effort : str, int or None
         Column of the effort (name or 0-based index). When the column is missing the run has
@@ -444,12 +455,24 @@ def load_run(path: str | os.PathLike[str], *, time: Column | None = "t",
                       load_position=load_position)
 
 
+_UNIT_IN_NAME = re.compile(r"^(.*?)\s*\[([^\[\]]+)\]$")
+
+
+def _name_and_unit(header_name: str) -> tuple[str, str | None]:
+    """``("u", "N")`` for a header ``"u [N]"``; ``(name, None)`` without a bracketed unit."""
+    m = _UNIT_IN_NAME.match(header_name)
+    return (m.group(1), m.group(2).strip()) if m and m.group(1) else (header_name, None)
+
+
 def _column_index(spec: Column, header: list[str]) -> int | None:
     """Index of column ``spec`` (a header name, else a 0-based index) in ``header``, or
     None when there is no such column."""
     if isinstance(spec, str):
         if spec in header:
             return header.index(spec)
+        named = [j for j, h in enumerate(header) if _name_and_unit(h)[0] == spec]
+        if len(named) == 1:  # "u" selects "u [N]"
+            return named[0]
         if not spec.strip().isdigit():
             return None
         spec = int(spec)
@@ -476,6 +499,29 @@ def _number(cell: str, path: str, line_no: int, name: str, delimiter: str) -> fl
         raise DataError(f"{path}: line {line_no}, column {name!r}: {cell!r} is not "
                         "finite (NaN or inf); remove or fill such rows")
     return value
+
+
+def _stated_units(wanted: dict[str, str], path: str, position_unit: str) -> str | None:
+    """Check the units the chosen columns state in their names (``"x [mm]"``) against the
+    options; return the effort's stated unit, or None.
+
+    Raises
+    ------
+    DataError
+        A time column not in s, a position column in a unit other than ``position_unit``.
+    """
+    for key, name in wanted.items():
+        unit = _name_and_unit(name)[1]
+        if unit is None or key == "u":
+            continue
+        if key == "t" and unit != "s":
+            raise DataError(f"{path}: column {name!r} states {unit}; expected a time in s (give "
+                            "the time in seconds, or --sample-time without a time column)")
+        if key != "t" and unit != position_unit:
+            raise DataError(f"{path}: column {name!r} states {unit} but the positions are read "
+                            f"in {position_unit} (--position-unit); expected the same unit, "
+                            f"such as --position-unit {unit}")
+    return _name_and_unit(wanted["u"])[1] if "u" in wanted else None
 
 
 def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | None,
@@ -553,6 +599,7 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
     if j_u is not None:
         idx["u"] = j_u
     wanted = {key: header[j] for key, j in idx.items()}
+    effort_unit = _stated_units(wanted, path, position_unit)
     ncol = len(header)
 
     def column(j: int) -> str:
@@ -603,6 +650,6 @@ def _parse(lines: Iterator[tuple[int, str, bool]], path: str, *, time: Column | 
                            np.asarray(data["u"]) if "u" in data else None,
                            source=path, names=names, line_numbers=np.asarray(line_numbers),
                            effort_required=effort_required, position_unit=position_unit,
-                           open_loop="x_ref" not in data,
+                           open_loop="x_ref" not in data, effort_unit=effort_unit,
                            x_load=(to_si * np.asarray(data["x_load"]) if "x_load" in data
                                    else None))

@@ -236,6 +236,13 @@ def run(args: argparse.Namespace) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    stated = run_data.units["effort"] if run_data.units.get("effort_stated") else None
+    if args.effort_unit is None and stated is not None:
+        args.effort_unit = stated  # the file states it (a column 'u [N]')
+    elif stated is not None and args.effort_unit != stated:
+        print(f"warning: --effort-unit {args.effort_unit}: column {run_data.columns.get('u')!r} "
+              f"of {run_data.source} states {stated}; {args.effort_unit} is used",
+              file=sys.stderr)
     if args.effort_unit is None:
         args.effort_unit = "N"
         if run_data.u is not None:
