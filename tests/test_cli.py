@@ -503,3 +503,25 @@ def test_a_stated_unit_that_contradicts_the_options_is_refused(
     assert main(["diagnose", str(path), *extra]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_a_large_tracking_error_warning_names_the_file_and_columns(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A warning about the validation run says it is about that file, and what it compares."""
+    t = np.arange(2000) * 1e-3
+    ref = 0.01 * np.sin(2 * np.pi * t)
+    runs = {"measured.csv": ref - 1e-5 * np.cos(2 * np.pi * t),  # tracks
+            "validation.csv": 0.4 * ref + 0.004 * np.sin(40 * t)}  # far from its reference
+    for name, x in runs.items():
+        rows = [f"{a:.6f},{b:.9g},{c:.9g}" for a, b, c in zip(t, ref, x, strict=True)]
+        (tmp_path / name).write_text("t,cmd,enc\n" + "\n".join(rows) + "\n")
+    err = _diagnose_until_the_fit(
+        [str(tmp_path / "measured.csv"), "--validate", str(tmp_path / "validation.csv"),
+         "--reference", "cmd", "--position", "enc", "--position-unit", "deg"],
+        monkeypatch, capsys)
+    hits = [line for line in err.splitlines() if "differs from the reference" in line]
+    assert len(hits) == 1, err
+    assert hits[0].startswith(f"warning: {tmp_path / 'validation.csv'}: the measured position "
+                              "(column 'enc') differs from the reference (column 'cmd') by ")
+    assert " deg rms" in hits[0]

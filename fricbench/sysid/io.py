@@ -254,10 +254,11 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     err_rms = float(np.sqrt(np.mean((xr - xm) ** 2)))
     if err_rms > 0.2 * span_ref:
         warnings.append(
-            f"the measured position differs from the reference by "
-            f"{err_rms / unit.to_si:.4g} {unit.name} rms, {100 * err_rms / span_ref:.0f} % of "
-            "the stroke: are both columns in the same unit and the right ones? (a step "
-            "reference leaves such an error after each step)"
+            f"{source}: the measured position (column {names['x']!r}) differs from the "
+            f"reference (column {names['x_ref']!r}) by {err_rms / unit.to_si:.4g} {unit.name} "
+            f"rms, {100 * err_rms / span_ref:.0f} % of the stroke: are both columns in the "
+            "same unit and the right ones? (a step reference leaves such an error after each "
+            "step)"
         )
     # a reversal: the reference turns back by more than 0.1 % of its stroke (a hysteresis on
     # the position read at 1 kHz, deaf to noise and dither)
