@@ -368,8 +368,7 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
               "mean over trajectories of the cut against `none`. *To the next*: the median "
               "over seeds of the per-seed difference to the next one down and its interval "
               "(paired bootstrap: seeds share plants); **n.s.** when the interval contains 0, "
-              "and the next one then shares the rank (`= k`); without an interval (1 seed), by "
-              "the point value.\n\n")
+              "and the next one then shares the rank (`= k`).\n\n")
     caveat = _seeds_caveat(len(seeds))
     ci_head = f" [{CONFIDENCE * 100:g} % CI]" if len(seeds) > 1 else ""
 
