@@ -31,7 +31,7 @@ import re
 import stat
 from array import array
 from collections.abc import Callable, Iterator
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -40,7 +40,8 @@ from fricbench.run_events import hysteresis_sign, motion_events, sign_reversals
 from fricbench.sysid.units import position_unit as _position_unit
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
-           "TIME_JITTER_TOLERANCE", "MAX_FILE_BYTES", "MAX_ROWS", "MAX_LINE_BYTES",
+           "TIME_JITTER_TOLERANCE", "RESAMPLE_MAX_JITTER", "MAX_FILE_BYTES", "MAX_ROWS",
+           "MAX_LINE_BYTES",
            "SAMPLE_TIME_RANGE", "POSITION_LIMIT", "MIN_STROKE", "EFFORT_RANGE", "MIN_STARTS",
            "REST_S"]
 
@@ -48,7 +49,12 @@ MIN_SAMPLES = 200
 """Fewest samples a run may have (0.2 s at 1 kHz)."""
 
 TIME_JITTER_TOLERANCE = 0.01
-"""Largest allowed relative deviation of a time step from the median step."""
+"""Largest relative deviation of a time step from the median step taken as uniform sampling."""
+
+RESAMPLE_MAX_JITTER = 0.5
+"""Largest relative deviation of a time step from the median step that is resampled (a PC
+logger's timestamps, jittered by its scheduler): a step more than 1.5 times the median, or
+less than half of it, is a dropped or a doubled sample, not jitter, and the run is refused."""
 
 MAX_FILE_BYTES = 256 * 2**20
 """Largest run file read, bytes (256 MiB); a larger file is refused before it is opened, a pipe
@@ -113,6 +119,51 @@ def _effort_problem(u: np.ndarray, name: str | None, where: Callable[[int], str]
         return (f"column {name!r}: the effort never exceeds {peak:.3g} in magnitude, below the "
                 f"{lo:g} any effort unit resolves")
     return None
+
+
+def _resample_jitter(t: object, x_ref: object, x: object, u: object | None,
+                     x_load: object | None, line_numbers: np.ndarray | None, t_name: str,
+                     source: str) -> tuple[Any, Any, Any, Any, Any, np.ndarray | None, str]:
+    """Arrays on a uniform grid when the time steps jitter by more than
+    :data:`TIME_JITTER_TOLERANCE` and at most :data:`RESAMPLE_MAX_JITTER` of their median:
+    linear interpolation at ``t0 + k ts``, ``ts`` the median step, and the warning that says
+    so (empty when nothing was resampled). Anything else goes on to the checks unchanged (a
+    larger deviation is refused there, with its figure)."""
+    tt = np.asarray(t, dtype=float)
+    if tt.ndim != 1 or tt.size < 3 or not np.all(np.isfinite(tt)):
+        return t, x_ref, x, u, x_load, line_numbers, ""
+    dt = np.diff(tt)
+    if np.any(dt <= 0.0):
+        return t, x_ref, x, u, x_load, line_numbers, ""
+    ts = float(np.median(dt))
+    dev = float(np.max(np.abs(dt - ts))) / ts
+    if not TIME_JITTER_TOLERANCE < dev <= RESAMPLE_MAX_JITTER:
+        if dev > RESAMPLE_MAX_JITTER:
+            i = int(np.argmax(np.abs(dt - ts)))
+            where = (f"line {int(line_numbers[i + 1])}" if line_numbers is not None
+                     else f"sample {i + 1}")
+            raise DataError(
+                f"{source}: column {t_name!r}: irregular sampling beyond what is resampled: the "
+                f"step to {where} is {dt[i]:.6g} s against the median {ts:.6g} s "
+                f"({100 * dev:.3g} % off; up to {100 * RESAMPLE_MAX_JITTER:g} % is resampled): "
+                "a dropped or doubled sample; cut the run there or resample it first")
+        return t, x_ref, x, u, x_load, line_numbers, ""
+    grid = tt[0] + ts * np.arange(int(np.floor((tt[-1] - tt[0]) / ts + 1e-9)) + 1)
+
+    def on_grid(a: object | None) -> np.ndarray | None:
+        if a is None:
+            return None
+        arr = np.asarray(a, dtype=float)
+        if arr.shape != tt.shape:  # the checks name the length mismatch
+            return arr
+        return np.interp(grid, tt, arr)
+
+    n_jit = int(np.sum(np.abs(dt - ts) / ts > TIME_JITTER_TOLERANCE))
+    why = (f"{source + ': ' if source else ''}column {t_name!r}: the time steps jitter by up to "
+           f"{100 * dev:.3g} % of their median {ts:.6g} s ({n_jit} of {dt.size} steps beyond "
+           f"{100 * TIME_JITTER_TOLERANCE:g} %): the run was resampled to that step by linear "
+           f"interpolation ({tt.size} -> {grid.size} samples)")
+    return (grid, on_grid(x_ref), on_grid(x), on_grid(u), on_grid(x_load), None, why)
 
 
 def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarray | None = None,
@@ -184,6 +235,8 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
         units["effort_stated"] = "yes"  # by the source, not assumed
     if x_load is not None:
         names.setdefault("x_load", "x_load")
+    t, x_ref, x, u, x_load, line_numbers, resampled = _resample_jitter(
+        t, x_ref, x, u, x_load, line_numbers, names["t"], source)
     clean, ts = validate_run_arrays(
         t, x_ref, x, u, source=source, where=where, min_samples=MIN_SAMPLES,
         labels={key: f"column {name!r}" for key, name in names.items()},
@@ -204,7 +257,7 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
                             f"is outside +-{POSITION_LIMIT:g} {si} (after conversion from "
                             f"{unit.name}), the positions a servo axis can have; is the column "
                             f"in {unit.name} (--position-unit)?")
-    warnings: list[str] = []
+    warnings: list[str] = [resampled] if resampled else []
     # positions within +-POSITION_LIMIT: spans and differences cannot overflow
     span_ref = float(np.ptp(xr))
     span_x = float(np.ptp(xm))

@@ -94,6 +94,24 @@ def test_irregular_sampling_beyond_one_percent(tmp_path):
         load_run(path)
 
 
+def test_jittered_timestamps_are_resampled_with_a_warning():
+    # a PC logger: each timestamp off by up to +-10 % of the step, the motion a smooth sine
+    n, ts = 2000, 1e-3
+    rng = np.random.default_rng(1)
+    t = np.arange(n) * ts + rng.uniform(-0.1 * ts, 0.1 * ts, n) * (np.arange(n) > 0)
+
+    def motion(tt):
+        return 0.01 * np.sin(2 * np.pi * 2.0 * tt)
+
+    run = validate_arrays(t, motion(t), motion(t) - 1e-5, 5.0 * np.cos(2 * np.pi * 2.0 * t))
+    assert run.ts == pytest.approx(ts, rel=0.02)
+    assert np.allclose(np.diff(run.t), run.ts, rtol=1e-9, atol=0.0)
+    # on the new grid the values are the motion's at the grid's times (linear interpolation)
+    assert np.max(np.abs(run.x_ref - motion(run.t))) < 1e-3 * 0.01
+    warning = next(w for w in run.warnings if "resampled" in w)
+    assert "jitter by up to" in warning and "%" in warning
+
+
 def test_small_jitter_is_accepted():
     n = 400
     t = np.arange(n) * 1e-3 + np.random.default_rng(0).uniform(-3e-8, 3e-8, n)

@@ -970,6 +970,9 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
     r0 = (prep.x - y) / scale
     res0 = PositionFit(prep, _eval_params(m, b)).run(m, max_iter=0)
     jac = res0.jac_rows if res0.jac_rows is not None else np.zeros((0, prep.n))
+    # with a load encoder the fit's residual stacks the load's error after the motor's: the
+    # screen's columns are the motor position's, so is its refit
+    jac = jac[:, :prep.n]
     base_lin = _linear_cv(r0, jac, prep.folds)
     probes: list[_Probe] = []
     key = hash(m.controller) if isinstance(m.controller, CascadeController) else 0
