@@ -236,7 +236,7 @@ def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarr
     if x_load is not None:
         names.setdefault("x_load", "x_load")
     t, x_ref, x, u, x_load, line_numbers, resampled = _resample_jitter(
-        t, x_ref, x, u, x_load, line_numbers, names["t"], source)
+        t, x_ref, x, u, x_load, line_numbers, names["t"] or "t", source)
     clean, ts = validate_run_arrays(
         t, x_ref, x, u, source=source, where=where, min_samples=MIN_SAMPLES,
         labels={key: f"column {name!r}" for key, name in names.items()},

@@ -74,6 +74,14 @@ def test_closed_loop_with_a_load_encoder_finds_the_resonance() -> None:
     assert _compliance(out)["logged_on_load"] == 0.0
 
 
+def test_closed_loop_from_the_position_with_a_load_encoder_finds_the_resonance() -> None:
+    # no effort: the position search's linearised screen runs on the motor encoder while the
+    # fit's residual stacks both encoders (it raised an IndexError there)
+    axis, run = _closed_run(106, effort=False, noise=5e-9, load=True)
+    out = diagnose(run).to_dict()
+    _check_found(axis, out)
+
+
 @pytest.mark.parametrize("seed", [107, pytest.param(108, marks=pytest.mark.xfail(
     strict=True, reason="compliance is found (f_r 18.253 Hz, true 18.253) but "
                         "stribeck_friction and asymmetric_friction join it: the open-loop fits "

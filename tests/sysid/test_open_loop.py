@@ -111,8 +111,15 @@ def test_cli_open_loop_without_reference(tmp_path: pytest.TempPathFactory) -> No
                           "--quiet"]) == 0
     with open(out) as fh:
         report = json.load(fh)
-    for key in ("verdict", "warnings", "position", "effort", "effects"):
+    for key in ("verdict", "warnings", "position", "effort", "effects", "parameter_sd",
+                "not_detected"):
         assert key in report
+    # the open loop reports its noise floor as the closed loop does: the sensor's noise (here
+    # 1e-7 m white) and the floor of a held-out free run, at or above it (the initial state
+    # taken from noisy samples drifts the simulated mass: a few times the noise)
+    nf = report["noise_floor"]
+    assert nf["sigma_m"] == pytest.approx(1e-7, rel=0.3)
+    assert nf["rms_m"] <= nf["prediction_floor_m"] < 1e-3 * np.ptp(y)
     assert report["position"]["rms_after"] < 0.02 * np.ptp(y)
     assert "coulomb_friction" in report["effects"]
     assert report["parameters"]["coulomb_friction"]["fc_N"] == pytest.approx(par["fc"], rel=0.1)

@@ -43,6 +43,7 @@ from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
 from fricbench.sysid.diagnose.parameters import BOUND_TOLERANCE
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings
+from fricbench.sysid.diagnose.signals import noise_floor
 from fricbench.sysid.diagnose.verdict import HELDOUT_GAIN
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
@@ -126,12 +127,16 @@ class OpenLoopFit:
     not_detected : list of dict
         Effects the search chose whose sizes lay within ``detection_sd`` standard deviations
         of zero in the final fit, so left out.
+    floor : float
+        Held-out free-run rms a perfect model of the chosen structure would still make
+        (:func:`free_run_floor` of its block fits), m.
     """
 
     model: OpenLoopModel
     train_rms: float
     heldout: dict[str, float]
     steps: list[dict[str, object]]
+    floor: float = 0.0
     idx: tuple[int, ...] = ()
     sd: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     n_eff: float = 0.0
@@ -577,6 +582,7 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
                     score, settings, say, describe=lambda v: f"{1e3 * v:.4g} mm")
     effects = chosen.best.structure
     starts = list(chosen.best.state.values())
+    floor = free_run_floor(chosen.best.state, effort, y, ts, blocks, n_init)
     full = [(0, y.size)]
     fit = _fit_multistart(effects, effort, y, ts, full, n_init, starts)
     sd, n_eff = _uncertainty(fit, settings)
@@ -598,7 +604,7 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
         sd, n_eff = _uncertainty(fit, settings)
     say(f"open loop: final {', '.join(effects) or 'rigid body'}: train free-run rms "
         f"{1e3 * fit.rms:.4g} mm")
-    return OpenLoopFit(fit.model, fit.rms, chosen.scores, chosen.decisions,
+    return OpenLoopFit(fit.model, fit.rms, chosen.scores, chosen.decisions, floor=floor,
                        idx=tuple(fit.idx), sd=sd, n_eff=n_eff, not_detected=not_detected)
 
 
@@ -763,6 +769,10 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
         "effects": list(fit.model.effects),
         "parameters": fit.model.describe(force_unit),
         "parameter_sd": fit.uncertainty(force_unit),
+        # the sensor's noise (third differences of the position, the motion's being small)
+        # and the floor of a held-out free run from a noisy start
+        "noise_floor": dict(noise_floor(y, np.zeros_like(y)).to_dict(),
+                            prediction_floor_m=fit.floor),
         "not_detected": fit.not_detected,
         "position": train["position"],
         "effort": train["effort"],
