@@ -173,7 +173,7 @@ effects/compliance.py:START_ITERATIONS effects/thermal.py:MIN_DURATION_S effects
 effects/thermal.py:MIN_TAU_S equation_error.py:FILTER_STEPS equation_error.py:DELAY_STEPS
 equation_error.py:MAX_DELAY_S equation_error.py:KI_KVFF_MIN models.py:KI_MIN_RATIO
 models.py:PID_KPI_MIN_RATIO models.py:_DIVERGED models.py:TRUST_WALKS open_loop.py:N_DATA_STARTS
-open_loop.py:FLOOR_FACTOR parameters.py:BOUND_TOLERANCE prepared.py:MIN_SLIDING_ROWS
+open_loop.py:PERIODIC_FLOOR_FACTOR parameters.py:BOUND_TOLERANCE prepared.py:MIN_SLIDING_ROWS
 prepared.py:N_SUB_MIN prepared.py:MAX_STEP search.py:ONE_BLOCK_MAJORITY search.py:ONE_BLOCK_WORSE
 search.py:NEGLIGIBLE_SIZE search.py:NEGLIGIBLE_RESIDUAL_DROP search.py:POSITION_TOLERANCE
 search.py:EFFORT_TOLERANCE search.py:POSITION_PHASE_FACTOR search.py:QUANTUM_PERIOD_TOLERANCE

@@ -49,7 +49,7 @@ from fricbench.sysid.diagnose.verdict import HELDOUT_GAIN
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
            "print_open_loop_summary", "simulate_model", "free_run_errors",
-           "periodic_statistics", "free_run_floor", "FLOOR_FACTOR"]
+           "periodic_statistics", "free_run_floor", "PERIODIC_FLOOR_FACTOR"]
 
 BASE_EFFECTS: tuple[str, ...] = ("coulomb_friction", "force_offset")
 """Effects of every open-loop model (with the mass and the viscous damping)."""
@@ -409,7 +409,7 @@ def _violation(effects: tuple[str, ...], fitted: dict[int, np.ndarray], ts: floa
     return None
 
 
-FLOOR_FACTOR = 3.0
+PERIODIC_FLOOR_FACTOR = 3.0
 """The open-loop verdict's floor: a periodic run whose free-run error is within this factor of
 the noise between its periods is at the noise floor (the search itself stops on the criterion,
 not on a floor).
@@ -733,7 +733,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     at_floor = False
     if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
         ratio = rms / per["noise_between_periods"]
-        at_floor = ratio <= FLOOR_FACTOR
+        at_floor = ratio <= PERIODIC_FLOOR_FACTOR
         residual = ("at the noise floor (within 3x the noise between periods)" if at_floor
                     else f"free-run error {ratio:.3g}x the noise between periods: the drift of "
                          "the rigid-body mode integrates what the model misses")

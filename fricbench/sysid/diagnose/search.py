@@ -100,8 +100,6 @@ class SearchSettings:
         1.5 when a thermal drift 1.19 x the floor was named in a friction-only run (a clipping
         1 kHz PID logged at 100 Hz, whose command delay the loop model lacks); the thermal
         drifts present were named at 2.5 x and more.
-    floor_factor : float
-        Stop when the position residual is below this multiple of the noise floor.
     max_steps : int
         Most effects added.
     n_confirm : int
@@ -116,7 +114,6 @@ class SearchSettings:
     min_force_share: float = 0.005
     min_position_share: float = 0.5
     min_position_share_other: float = 1.5
-    floor_factor: float = 1.25
     max_steps: int = 8
     n_confirm: int = 3
     candidates: tuple[str, ...] = field(default_factory=effect_names)
