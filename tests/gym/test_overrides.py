@@ -96,7 +96,7 @@ def test_task_keywords() -> None:
 def test_none_restores_a_default_and_stops_a_draw() -> None:
     axis, _ = _made(SHIFTED, friction={"fs": None})
     assert axis.friction == replace(SHIFTED_FRICTION, fs=Stribeck().fs)
-    axis, _ = _made("fricbench/PaperAxisLuGre-v0", friction={"id": None}, fc=400.0)
+    axis, _ = _made("fricbench/LuGreAxis-v0", friction={"id": None}, fc=400.0)
     assert axis.friction == Stribeck(fc=400.0)  # the default model; LuGre's fs, vs kept
     spec = get_spec(RANDOM)
     _, task = _made(RANDOM, randomize={"fc": None, "vs": [1e-3, 2e-3]})
