@@ -303,6 +303,35 @@ def test_bench_checks_compensator_settings_before_fitting(
     assert not out.exists()
 
 
+@pytest.mark.parametrize("case", ["missing", "corrupt", "weights", "other-algo"])
+def test_bench_loads_a_policy_file_at_the_option_check(
+        case: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A policy named by --compensator-kwargs is loaded before any run: a bad one exits 2
+    naming the option and the file, and no compensator ran (none first in the list)."""
+    def no_fit(*args: object) -> None:
+        raise AssertionError("fitted before checking the policy file")
+
+    monkeypatch.setattr(runner, "fit_compensators", no_fit)
+    shipped = Path(runner.__file__).parents[1] / "policies"
+    policy = tmp_path / "policy.json"
+    if case == "corrupt":
+        policy.write_text("{not json")
+    elif case == "weights":  # the JSON is fine, its weights file is not there
+        policy.write_text((shipped / "rl-sac.json").read_text())
+    elif case == "other-algo":  # a PPO policy given to rl-sac
+        for suffix in (".json", ".pt"):
+            (tmp_path / f"rl-ppo{suffix}").write_bytes((shipped / f"rl-ppo{suffix}").read_bytes())
+        policy = tmp_path / "rl-ppo.json"
+    out = tmp_path / "out"
+    assert main(["bench", *_ONE_RUN, "--compensators", "none", "rl-sac", "--out", str(out),
+                 "--compensator-kwargs", f"rl-sac:policy={policy}"]) == 2
+    err = capsys.readouterr().err
+    assert "error: --compensator-kwargs rl-sac: " in err and "Traceback" not in err, err
+    assert str(policy) in err and "(checked on fricbench/PaperAxis-v0)" in err
+    assert not out.exists()
+
+
 def test_bench_records_the_compensator_settings(tmp_path: Path, gain_compensator: None) -> None:
     cfg = tmp_path / "settings.toml"
     cfg.write_text('[test-gain]\ngain = 0.2\npolicy = "from-file"\n')

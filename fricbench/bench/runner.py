@@ -504,9 +504,10 @@ def read_compensator_config(path: str | Path) -> dict[str, dict[str, Any]]:
 
 
 def _check_comp_kwargs(comp_kwargs: CompKwargs, comp_ids: Sequence[str],
-                       known: Sequence[str]) -> None:
-    """Each id known and run, each keyword one its constructor takes, and the compensator
-    built with them (its own checks)."""
+                       known: Sequence[str], fit_envs: Sequence[str] = ()) -> None:
+    """Each id known and run, each keyword one its constructor takes, the compensator built
+    with them (its own checks), and what its fit will read checked on each of ``fit_envs``
+    (:meth:`~fricbench.compensators.Compensator.check_setup`: a policy file loaded)."""
     if not isinstance(comp_kwargs, Mapping):
         raise BenchConfigError("comp_kwargs", comp_kwargs,
                                "expected a mapping of compensator id to {keyword: value}")
@@ -537,9 +538,17 @@ def _check_comp_kwargs(comp_kwargs: CompKwargs, comp_ids: Sequence[str],
                                        f"not a keyword of compensator {cid!r}"
                                        f"{did_you_mean(key, accepted)}; {takes}")
         try:
-            make_compensator(cid, **kwargs)
+            comp = make_compensator(cid, **kwargs)
         except (TypeError, ValueError) as exc:
             raise BenchConfigError("comp_kwargs", cid, str(exc)) from None
+        if not kwargs:
+            continue
+        for env_id in fit_envs:
+            try:
+                comp.check_setup(env_id)
+            except Exception as exc:  # noqa: BLE001 - a plug-in's check may raise anything
+                raise BenchConfigError("comp_kwargs", cid,
+                                       f"{exc} (checked on {env_id})") from None
 
 
 def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Sequence[int],
@@ -550,7 +559,9 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
 
     Nothing is fitted or run: a typo fails here in a fraction of a second, not after the fits.
     Each compensator with settings in ``comp_kwargs`` is built once with them, so that its
-    constructor checks the values.
+    constructor checks the values, and checks on each training env what its fit will read
+    (:meth:`~fricbench.compensators.Compensator.check_setup`: a policy file named by a
+    setting is loaded here, so that a missing or corrupt one is a bad option).
 
     Raises
     ------
@@ -559,8 +570,9 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
         near matches), a trajectory whose number of axes an env does not drive, a seed that is
         not an integer >= 0, an empty list, or an id or seed given twice; in ``comp_kwargs``,
         settings of an unknown compensator or one not run, a keyword its constructor does not
-        take (with near matches and the accepted keywords), or a value its constructor refuses
-        (its message).
+        take (with near matches and the accepted keywords), a value its constructor refuses
+        (its message), or a file it names that its ``check_setup`` refuses (missing, corrupt,
+        for another env).
     """
     known_envs = registered_env_ids()
     # precomp:<predictor id> names a pre-compensation with any registered predictor
@@ -593,7 +605,8 @@ def plan_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str], seeds: Seque
                                                    "would score the same runs twice)")
             seen.add(item)
     if comp_kwargs is not None:
-        _check_comp_kwargs(comp_kwargs, comp_ids, known_comps)
+        _check_comp_kwargs(comp_kwargs, comp_ids, known_comps,
+                           sorted({get_spec(e).fit_on for e in env_ids}))
     tasks = []
     for env_id in env_ids:
         spec = get_spec(env_id)

@@ -153,6 +153,20 @@ class Compensator(abc.ABC):
         self._fitted = True
         return self
 
+    def check_setup(self, env_id: str) -> None:  # noqa: B027 - optional hook
+        """Check, without learning, what :meth:`fit` on ``env_id`` will read: the files its
+        constructor keywords name (a policy) and that they suit ``env_id``.
+
+        Fast (a file read, no training): the benchmark calls it on each training env at its
+        option check, before anything runs, so that a missing or corrupt file is a bad option
+        and not a failed run. The default does nothing.
+
+        Raises
+        ------
+        CompensatorError
+            Naming the file and what is wrong with it.
+        """
+
     # -- episode ------------------------------------------------------------------------------
     def reset(self, context: EpisodeContext, *, seed: int | None = None) -> None:
         """Start an episode on ``context.reference``."""

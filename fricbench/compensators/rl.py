@@ -110,15 +110,29 @@ class RLCompensator(Compensator):
             Naming the file, when it is missing, corrupt, from another algorithm, or built for
             another observation layout or action mode.
         """
+        self.policy_ = self._load(env_id)
+        self._fitted = True
+        return self
+
+    def check_setup(self, env_id: str) -> None:
+        """Load the policy file and check it fits ``env_id`` (what :meth:`fit` does, without
+        keeping it).
+
+        Raises
+        ------
+        CompensatorError
+            As :meth:`fit`.
+        """
+        self._load(env_id)
+
+    def _load(self, env_id: str) -> NumpyPolicy:
         path = self.policy_path
         pol, nf = load_policy_for(self, path, env_id, algo=self.algo)
         spec = pol.spec
         if spec.obs_dim != nf or spec.act_dim != 1:
             raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
                                    f"{env_id} has {nf} features and 1 action per axis")
-        self.policy_ = pol
-        self._fitted = True
-        return self
+        return pol
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
         pol: NumpyPolicy = self.policy_

@@ -125,14 +125,8 @@ class ResidualRLCompensator(Compensator):
             Naming the file, when it is missing or corrupt, acts in another mode, was not
             trained as a residual, or was built for another observation layout.
         """
-        path = self.policy_path
-        pol, nf = load_policy_for(self, path, env_id)
+        pol, (self.bandwidth_, self.gain_) = self._load(env_id)
         spec = pol.spec
-        self.bandwidth_, self.gain_ = base_settings(spec.training, path)
-        if spec.obs_dim != nf + 1 or spec.act_dim != 1:
-            raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
-                                   f"{self.id} on {env_id} needs {nf + 1} features (the env's "
-                                   f"{nf} and the base's estimate) and 1 action per axis")
         self.policy_: NumpyPolicy = pol
         try:  # the force unit the policy learned in (see the module docstring)
             self.train_force_scale_: float | None = \
@@ -141,6 +135,29 @@ class ResidualRLCompensator(Compensator):
             self.train_force_scale_ = None
         self._fitted = True
         return self
+
+    def check_setup(self, env_id: str) -> None:
+        """Load the residual policy file and check it fits ``env_id`` (what :meth:`fit` does,
+        without keeping it).
+
+        Raises
+        ------
+        CompensatorError
+            As :meth:`fit`.
+        """
+        self._load(env_id)
+
+    def _load(self, env_id: str) -> tuple[NumpyPolicy, tuple[float, float]]:
+        """The policy and its base's ``(bandwidth, gain)``, checked against ``env_id``."""
+        path = self.policy_path
+        pol, nf = load_policy_for(self, path, env_id)
+        spec = pol.spec
+        base = base_settings(spec.training, path)
+        if spec.obs_dim != nf + 1 or spec.act_dim != 1:
+            raise CompensatorError(f"{path}: obs_dim={spec.obs_dim}, act_dim={spec.act_dim}; "
+                                   f"{self.id} on {env_id} needs {nf + 1} features (the env's "
+                                   f"{nf} and the base's estimate) and 1 action per axis")
+        return pol, base
 
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
         nf = n_features(context.task.observation)

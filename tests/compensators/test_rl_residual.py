@@ -234,3 +234,16 @@ def test_plant_draw_is_the_benchmarks() -> None:
         ratio = ax.mechanics.mass / nominal.mechanics.mass
         assert np.exp(-0.1) - 1e-12 <= ratio <= np.exp(0.1) + 1e-12
     assert draw_plant(nominal, 0) == draw_plant(nominal, 0)
+
+
+def test_check_setup_loads_the_policy_without_fitting(tmp_path: Path) -> None:
+    make_compensator("rl-residual").check_setup(ENV)  # the shipped policy suits the env
+    comp = make_compensator("rl-residual", policy=str(tmp_path / "missing.json"))
+    with pytest.raises(CompensatorError, match="missing.json: cannot read policy JSON"):
+        comp.check_setup(ENV)
+    sac = tmp_path / "sac.json"  # not a residual policy: no base recorded
+    sac.write_text(shipped_policy("rl-sac").read_text())
+    (tmp_path / "rl-sac.pt").write_bytes(shipped_policy("rl-sac").with_suffix(".pt").read_bytes())
+    with pytest.raises(CompensatorError, match="sac.json"):
+        make_compensator("rl-residual", policy=str(sac)).check_setup(ENV)
+    assert not hasattr(comp, "policy_")  # nothing kept: fit() still required
