@@ -15,10 +15,16 @@ Each row records the constructor keywords its compensator was made with beyond t
 defaults (``compensator_kwargs``, JSON; ``fricbench bench --compensator-kwargs``), and the
 ``.md`` lists them under "Compensator settings", so a table says what settings produced it.
 
+Each row also records the command that wrote it and its commit (``command``, ``commit``), so
+a table merged from several runs lists every command that contributed, with its commit and the
+seeds of its rows.
+
 Each ``.md`` reports per cell the median over seeds and its 95 % bootstrap interval of the max
-and the RMS error and of the cut against ``none`` (:mod:`fricbench.bench.statistics`), and ranks
-the compensators overall and within each category (:data:`fricbench.compensators.CATEGORIES`),
-marking neighbours whose paired per-seed difference is not significant.
+and the RMS error and of the cut against ``none`` (:mod:`fricbench.bench.statistics`), with the
+number of seeds of each row, and ranks the compensators overall and within each category
+(:data:`fricbench.compensators.CATEGORIES`), marking neighbours whose per-seed difference is not
+significant (paired on their common seeds; unpaired, and said so, when they share fewer than
+two).
 
 Per-step ``act`` times depend on the machine and its load, so they are kept out of these
 tables: they go to ``timings/<env>.csv`` (untracked: ``leaderboards/timings/`` is in
@@ -42,6 +48,7 @@ import os
 from collections import defaultdict
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -56,6 +63,7 @@ from fricbench.bench.statistics import (
     cell_rng,
     median_ci,
     paired_difference,
+    unpaired_difference,
 )
 
 __all__ = [
@@ -64,6 +72,7 @@ __all__ = [
     "TARGETS",
     "TIMING_COLUMNS",
     "ballbar_plot_name",
+    "Ranked",
     "compensator_category",
     "env_file_stem",
     "ranking",
@@ -73,10 +82,12 @@ __all__ = [
 
 _KEY = ("env", "compensator", "trajectory", "seed")
 # compensator_kwargs: the constructor keywords of the run beyond the registered defaults, as
-# JSON with sorted keys ("" for none)
+# JSON with sorted keys ("" for none); command, commit: the run that wrote the row ("" in rows
+# written before rows recorded them)
 CSV_COLUMNS = (*_KEY, "status", "max_um", "rms_um", "reversal_peak_um",
                "circular_deviation_um", "reversal_spike_um", "improvement_max_pct", "effort_rms",
-               "effort_unit", "reason", "compensator_kwargs", "category", "plant")
+               "effort_unit", "reason", "compensator_kwargs", "category", "plant", "command",
+               "commit")
 # untracked: timings/<env>.csv
 TIMING_COLUMNS = (*_KEY, "step_us")
 # <env>.failures.csv: the latest failure of each cell not run successfully since
@@ -261,14 +272,29 @@ def _scores(rows: list[dict[str, str]], comp: str, trajs: Sequence[str]) -> dict
     return {s: float(np.mean([c[s] for c in cuts])) for s in sorted(common)}
 
 
+class Ranked(NamedTuple):
+    """One line of :func:`ranking`."""
+
+    compensator: str
+    score: Interval
+    """The median over its seeds of its mean cut against ``none`` (%); ``n`` its seeds."""
+    to_next: Interval | None
+    """This one minus the next one down (None for the last): significant when its interval
+    excludes 0."""
+    paired: bool
+    """``to_next`` is the median of per-seed differences on the seeds both have (True), or the
+    difference of the two medians, each over its own seeds (False: they share fewer than two
+    seeds, as in a table merged from runs on other seeds)."""
+
+
 def ranking(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequence[str],
-            seeds: Sequence[int], label: str = "overall",
-            ) -> list[tuple[str, Interval, Interval | None]]:
+            seeds: Sequence[int], label: str = "overall") -> list[Ranked]:
     """Rank ``comps`` by the median over seeds of their mean cut against ``none``.
 
-    Returns ``(compensator, its score interval, paired difference to the next one or None)``
-    best first; the difference (this one minus the next, per seed) is not significant when its
-    interval contains 0. Compensators without a complete seed are left out.
+    Best first. Two neighbours sharing at least two seeds are compared per seed on those
+    (:func:`~fricbench.bench.statistics.paired_difference`: seeds share plants); otherwise by
+    :func:`~fricbench.bench.statistics.unpaired_difference`. Compensators without a complete
+    seed are left out.
     """
     scored = [(c, _scores(rows, c, trajs)) for c in comps]
     scored = [(c, sc) for c, sc in scored if sc]
@@ -277,11 +303,14 @@ def ranking(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequence[st
     with_ci.sort(key=lambda x: (-x[2].median, x[0]))
     out = []
     for i, (c, sc, ci) in enumerate(with_ci):
-        diff = None
+        diff, paired = None, True
         if i + 1 < len(with_ci):
             nxt = with_ci[i + 1]
-            diff = paired_difference(sc, nxt[1], cell_rng(seeds, label, c, nxt[0]))
-        out.append((c, ci, diff))
+            paired = len(sc.keys() & nxt[1].keys()) >= 2
+            diff = (paired_difference(sc, nxt[1], cell_rng(seeds, label, c, nxt[0])) if paired
+                    else unpaired_difference(sc, nxt[1],
+                                             cell_rng(seeds, label, c, nxt[0], "unpaired")))
+        out.append(Ranked(c, ci, diff, paired))
     return out
 
 
@@ -303,29 +332,29 @@ def _ranking_table(rows: list[dict[str, str]], comps: Sequence[str], trajs: Sequ
     ranked = ranking(rows, comps, trajs, seeds, label)
     if not ranked:
         return ["(no compensator with a complete seed)\n"]
-    lines = ["| rank | compensator | category | mean cut of max abs(e) (%) | to the next (paired, "
-             "%) |\n", "|---|---|---|---|---|\n"]
+    lines = ["| rank | compensator | category | n | mean cut of max abs(e) (%) | to the next "
+             "(%) |\n", "|---|---|---|---|---|---|\n"]
     rank = 1
-    for i, (c, ci, diff) in enumerate(ranked):
+    for i, (c, ci, diff, paired) in enumerate(ranked):
         if diff is None:
             vs = ""
-        elif diff.excludes_zero() or not diff.has_ci:  # no interval: nothing to call n.s.
-            vs = diff.text(".1f", sign=True)
         else:
-            vs = diff.text(".1f", sign=True) + " **n.s.**"
+            vs = diff.text(".1f", sign=True) + ("" if paired else " (unpaired)")
+            if diff.has_ci and not diff.excludes_zero():
+                vs += " **n.s.**"
         # a tie only where an interval says so; without one the point values rank
-        prev = ranked[i - 1][2] if i > 0 else None
+        prev = ranked[i - 1].to_next if i > 0 else None
         tie = prev is not None and prev.has_ci and not prev.excludes_zero()
         shown = f"= {rank}" if tie else str(i + 1)
         if not tie:
             rank = i + 1
-        lines.append(f"| {shown} | `{c}` | {cats.get(c, '') or '-'} | {ci.text('.1f', True)} "
-                     f"| {vs} |\n")
+        lines.append(f"| {shown} | `{c}` | {cats.get(c, '') or '-'} | {ci.n} | "
+                     f"{ci.text('.1f', True)} | {vs} |\n")
     return lines
 
 
 def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, str]],
-              command: str, commit: str, description: str, fit_on: str,
+              description: str, fit_on: str,
               ballbars: Sequence[str] = ()) -> str:
     from fricbench.compensators import CATEGORIES
 
@@ -338,8 +367,7 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     circle = any(r["circular_deviation_um"] for r in rows)
     out = io.StringIO()
     out.write(f"# Leaderboard: `{env_id}`\n\n{description}\n\n")
-    out.write(f"- Made by: `{command}`\n- Commit: `{commit}`\n- Seeds: {seeds} "
-              f"(n = {len(seeds)})\n")
+    out.writelines(_provenance_lines(rows, seeds))
     if plants == ["seed"]:
         out.write("- Plants: each seed is a machine drawn around the env's nominal axis "
                   "(friction levels, Stribeck velocity, mass, damping; encoder and current "
@@ -367,24 +395,27 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     out.write("- Ranking: overall and within each category, by the median over seeds of the "
               "mean over trajectories of the cut against `none`. *To the next*: the median "
               "over seeds of the per-seed difference to the next one down and its interval "
-              "(paired bootstrap: seeds share plants); **n.s.** when the interval contains 0, "
-              "and the next one then shares the rank (`= k`).\n\n")
+              "(paired bootstrap on the seeds both have: seeds share plants); marked "
+              "*(unpaired)* when the two share fewer than two seeds: the difference of their "
+              "medians, each resampled over its own seeds; **n.s.** when the interval contains "
+              "0, and the next one then shares the rank (`= k`). *n*: the seeds of the row.\n\n")
     caveat = _seeds_caveat(len(seeds))
     ci_head = f" [{CONFIDENCE * 100:g} % CI]" if len(seeds) > 1 else ""
 
     def table(title: str, key: str, fmt: str, sign: bool, extra: bool) -> None:
         out.write(f"## {title}{ci_head}{caveat}\n\n")
-        head = "| compensator | category | " + " | ".join(trajs) + " |"
+        head = "| compensator | category | n | " + " | ".join(trajs) + " |"
         if extra:
             head += " reversal peak (um, median) |" + (" circular dev. (um) |" if circle else "")
         out.write(head + "\n")
-        n_cols = len(trajs) + 2 + ((2 if circle else 1) if extra else 0)
+        n_cols = len(trajs) + 3 + ((2 if circle else 1) if extra else 0)
         out.write("|" + "---|" * n_cols + "\n")
         for c in comps:
             if sign and c == "none":
                 continue
             cells = [_cell(rows, seeds, c, t, key, fmt, sign) for t in trajs]
-            line = f"| `{c}` | {cats[c] or '-'} | " + " | ".join(cells) + " |"
+            n = _n_text([len(_per_seed(rows, c, t, key)) for t in trajs])
+            line = f"| `{c}` | {cats[c] or '-'} | {n} | " + " | ".join(cells) + " |"
             if extra:
                 line += " " + _fmt(_median([m["reversal_peak_um"] for m in
                                             summary.get(c, {}).values()
@@ -440,6 +471,46 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
         for t in ballbars:
             out.write(f"![{t} ballbar](plots/{ballbar_plot_name(env_id, t)})\n")
     return out.getvalue()
+
+
+def _n_text(counts: Sequence[int]) -> str:
+    """The seeds of a table row: ``"10"``, or ``"2-4"`` when its cells have different ones
+    (cells without a value not counted)."""
+    ns = sorted({n for n in counts if n})
+    if not ns:
+        return "0"
+    return str(ns[0]) if len(ns) == 1 else f"{ns[0]}-{ns[-1]}"
+
+
+def _provenance_lines(rows: list[dict[str, str]], seeds: Sequence[int]) -> list[str]:
+    """The ``Made by``, ``Commit`` and ``Seeds`` lines: the run that wrote every row, or each
+    run that contributed rows (merged tables), with its commit and the seeds of its rows."""
+    runs: dict[tuple[str, str], list[dict[str, str]]] = defaultdict(list)
+    for r in rows:
+        runs[(r.get("command", ""), r.get("commit", ""))].append(r)
+    per_comp = {c: {r["seed"] for r in rows if r["compensator"] == c}
+                for c in {r["compensator"] for r in rows}}
+    whole = len({frozenset(v) for v in per_comp.values()}) == 1
+    n_text = (f"(n = {len(seeds)})" if whole else
+              "(their union; the rows have different seeds: n per row in the tables)")
+    if len(runs) == 1 and all(next(iter(runs))):
+        command, commit = next(iter(runs))
+        return [f"- Made by: `{command}`\n", f"- Commit: `{commit}`\n",
+                f"- Seeds: {list(seeds)} {n_text}\n"]
+    lines = ["- Made by (rows merged from several runs: each command, its commit and the seeds "
+             "of its rows):\n"]
+    for (command, commit), rs in sorted(runs.items(), key=lambda kv: (not kv[0][0], kv[0])):
+        run_seeds = sorted({int(r["seed"]) for r in rs})
+        comps = sorted({r["compensator"] for r in rs}, key=lambda c: (c != "none", c))
+        what = (f"seeds {run_seeds}, {len(rs)} row{'' if len(rs) == 1 else 's'} "
+                f"({', '.join(f'`{c}`' for c in comps)})")
+        if command:
+            lines.append(f"  - `{command}` at commit `{commit or 'unknown'}`: {what}\n")
+        else:
+            lines.append(f"  - not recorded (rows written before rows named their command): "
+                         f"{what}\n")
+    lines.append(f"- Seeds: {list(seeds)} {n_text}\n")
+    return lines
 
 
 def _fmt(x: float) -> str:
@@ -538,6 +609,8 @@ def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str,
     fail_path = out / f"{stem}.failures.csv"
     time_path = out / "timings" / f"{stem}.csv"
     new_rows = _record_rows(recs)
+    for row in new_rows:
+        row["command"], row["commit"] = command, commit
     old_rows = {_key(r): {c: r.get(c, "") for c in CSV_COLUMNS} for r in _read_csv(csv_path)}
     failures = {_key(r): {c: r.get(c, "") for c in FAILURE_COLUMNS}
                 for r in _read_csv(fail_path)}
@@ -592,6 +665,6 @@ def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str,
     ballbars = [t for t in sorted({r["trajectory"] for r in rows})
                 if (out / "plots" / ballbar_plot_name(env_id, t)).exists()]
     atomic_write(out / f"{stem}.md",
-                 _markdown(env_id, rows, fail_rows, command, commit, desc, fit_on, ballbars))
+                 _markdown(env_id, rows, fail_rows, desc, fit_on, ballbars))
     written.append(out / f"{stem}.md")
     return written

@@ -16,6 +16,7 @@ from fricbench.bench.statistics import (
     median_ci,
     min_seeds,
     paired_difference,
+    unpaired_difference,
 )
 
 PAPER = "fricbench/PaperAxis-v0"
@@ -63,9 +64,10 @@ def test_clear_difference_is_significant_and_a_tie_is_not() -> None:
     tie_d = 20.0 + plant + rng.normal(0.0, 1.0, n)
     rows = _rows({"a": list(clear_a), "b": list(clear_b), "c": list(tie_c), "d": list(tie_d)})
     ranked = ranking(rows, ["none", "a", "b", "c", "d"], ["curve"], list(range(n)))
-    order = [c for c, _, _ in ranked]
+    order = [r.compensator for r in ranked]
     assert order[:2] == ["a", "b"] and set(order[2:4]) == {"c", "d"} and order[4] == "none"
-    diffs = {c: d for c, _, d in ranked}
+    diffs = {r.compensator: r.to_next for r in ranked}
+    assert all(r.paired for r in ranked)
     assert diffs["a"] is not None and diffs["a"].excludes_zero()  # a above b
     first_of_tie = order[2]
     assert diffs[first_of_tie] is not None and not diffs[first_of_tie].excludes_zero()
@@ -111,7 +113,8 @@ def test_table_has_intervals_categories_rankings_and_no_nan(tmp_path: Path) -> N
     assert "nan" not in md.lower() and "inf" not in md.replace("info", "").lower()
     csv_text = (tmp_path / "a" / "PaperAxis-v0.csv").read_text()
     assert csv_text.count("\n") == 1 + len(recs)  # the raw per-seed rows stay
-    assert ",online,seed\n" in csv_text and ",trials,seed\n" in csv_text
+    assert ",online,seed,fricbench bench,abc\n" in csv_text  # each row names its run
+    assert ",trials,seed,fricbench bench,abc\n" in csv_text
     assert not any(math.isnan(float(x)) for x in csv_text.split(",") if _is_float(x))
 
 
@@ -153,7 +156,7 @@ def test_one_seed_ranks_by_the_point_value_and_says_there_is_no_interval(
     ranks = [(row[0], row[1]) for row in _overall(md)]
     assert ranks == [("1", "`ilc`"), ("2", "`kalman`"), ("3", "`none`"),
                      ("4", "`friction-ff`")]
-    assert not any("n.s." in row[4] for row in _overall(md))
+    assert not any("n.s." in row[5] for row in _overall(md))
     assert "## Ranking (1 seed: no interval exists; ranked by the point value)" in md
     assert "## Max abs(e) (um): median (1 seed: no interval exists" in md
     assert "95 % CI" not in md
@@ -172,3 +175,69 @@ def test_few_seeds_carry_the_caveat_in_the_headings(tmp_path: Path, n_seeds: int
 def test_enough_seeds_carry_no_caveat(tmp_path: Path) -> None:
     md = _board(tmp_path, MIN_SEEDS, {"kalman": 0.6})
     assert "## Max abs(e) (um): median [95 % CI]\n" in md and "## Ranking\n" in md
+
+
+def test_unpaired_difference_of_disjoint_seeds() -> None:
+    a = {0: 50.0, 1: 52.0, 2: 51.0, 3: 53.0}
+    b = {4: 30.0, 5: 31.0, 6: 29.0, 7: 32.0}
+    d = unpaired_difference(a, b, cell_rng(range(8), "a-b"))
+    assert paired_difference(a, b, cell_rng(range(8), "a-b")) is None  # no common seed
+    assert d is not None and d.median == pytest.approx(51.5 - 30.5) and d.excludes_zero()
+    assert d == unpaired_difference(a, b, cell_rng(range(8), "a-b"))  # bit for bit
+    close = unpaired_difference(a, {4: 50.5, 5: 52.5, 6: 51.0}, cell_rng(range(8), "a-c"))
+    assert close is not None and close.n == 3 and not close.excludes_zero()
+    one = unpaired_difference({0: 2.0}, b, cell_rng(range(8), "x"))
+    assert one is not None and not one.has_ci and one.n == 1
+    assert unpaired_difference({}, b, cell_rng(range(8), "x")) is None
+
+
+def test_merged_table_gives_n_per_row_unpaired_comparisons_and_every_command(
+        tmp_path: Path) -> None:
+    """Two runs on other seeds merged into one table: `kalman` on seeds 0-3, `ilc` on 4-7,
+    `none` on all eight."""
+    rng = np.random.default_rng(2)
+    base = 20.0 + rng.normal(0.0, 2.0, 8)
+    run_a = [_rec(c, t, s, f * base[s]) for s in range(4) for t in ("curve", "m_serial")
+             for c, f in (("none", 1.0), ("kalman", 0.4))]
+    run_b = [_rec(c, t, s, f * base[s]) for s in range(4, 8) for t in ("curve", "m_serial")
+             for c, f in (("none", 1.0), ("ilc", 0.05))]
+    write_leaderboards(run_a, tmp_path, "fricbench bench --seeds 0 1 2 3", "aaa1111",
+                       {PAPER: ("d", PAPER)})
+    write_leaderboards(run_b, tmp_path, "fricbench bench --seeds 4 5 6 7", "bbb2222",
+                       {PAPER: ("d", PAPER)})
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    # every contributing command, with its commit and the seeds of its rows
+    assert "- Made by (rows merged from several runs" in md
+    assert ("  - `fricbench bench --seeds 0 1 2 3` at commit `aaa1111`: seeds [0, 1, 2, 3], "
+            "16 rows (`none`, `kalman`)") in md
+    assert ("  - `fricbench bench --seeds 4 5 6 7` at commit `bbb2222`: seeds [4, 5, 6, 7], "
+            "16 rows (`none`, `ilc`)") in md
+    assert "- Seeds: [0, 1, 2, 3, 4, 5, 6, 7] (their union; the rows have different seeds" in md
+    # n per row: none on 8 seeds, the others on 4
+    assert "| `none` | online | 8 |" in md
+    assert "| `kalman` | online | 4 |" in md and "| `ilc` | trials | 4 |" in md
+    # ilc and kalman share no seed: compared unpaired, not left blank
+    overall = md.split("### Overall")[1].split("###")[0]
+    ilc_line = next(ln for ln in overall.splitlines() if "`ilc`" in ln)
+    assert "(unpaired)" in ilc_line and ilc_line.rstrip().endswith("|")
+    assert ilc_line.split("|")[-2].strip().startswith("+"), ilc_line
+    kalman_line = next(ln for ln in overall.splitlines() if "`kalman`" in ln)
+    assert "(unpaired)" not in kalman_line  # kalman against none: 4 common seeds, paired
+    ranked = ranking([dict(r) for r in _csv_rows(tmp_path / "PaperAxis-v0.csv")],
+                     ["none", "kalman", "ilc"], ["curve", "m_serial"], list(range(8)))
+    assert [(r.compensator, r.paired, r.score.n) for r in ranked] == [
+        ("ilc", False, 4), ("kalman", True, 4), ("none", True, 8)]
+    assert ranked[0].to_next is not None and ranked[0].to_next.excludes_zero()
+    # one run that wrote every row: the short form
+    write_leaderboards(run_a, tmp_path / "one", "fricbench bench --seeds 0 1 2 3", "aaa1111",
+                       {PAPER: ("d", PAPER)})
+    one = (tmp_path / "one" / "PaperAxis-v0.md").read_text()
+    assert "- Made by: `fricbench bench --seeds 0 1 2 3`\n- Commit: `aaa1111`\n" in one
+    assert "- Seeds: [0, 1, 2, 3] (n = 4)\n" in one
+
+
+def _csv_rows(path: Path) -> list[dict[str, str]]:
+    import csv
+
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
