@@ -46,6 +46,8 @@ __all__ = [
     "BenchConfigError",
     "BenchTask",
     "EpisodeRecord",
+    "LostTask",
+    "RAY_MAX_RETRIES",
     "bench_env",
     "fit_compensators",
     "plant_axes",
@@ -382,7 +384,9 @@ def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
                 args.append((c, f, seed + FIT_SEED_STRIDE * s, dict(kwargs.get(c, {})),
                              plant_axes(f, s)[1]))
     results = dict(map_fn(_fit_one, args))
-    return {key: results[i] for i, key in enumerate(keys)}
+    return {key: ((None, f"fit failed: {results[i].reason}")
+                  if isinstance(results[i], LostTask) else results[i])
+            for i, key in enumerate(keys)}
 
 
 def _indexed(i: int, fn: Callable[..., Any], args: tuple[Any, ...]) -> tuple[int, Any]:
@@ -403,8 +407,24 @@ def _joblib_map(n_jobs: int, progress: Callable[[Any], None] | None) -> MapFn:
     return map_fn
 
 
+RAY_MAX_RETRIES = 2
+"""Times Ray reruns a task whose worker died (killed, out of memory, node lost) before the
+runner gives it up as :class:`LostTask`. A rerun gives the same numbers: every random draw of a
+fit or a cell comes from its seeds."""
+
+
+@dataclass(frozen=True)
+class LostTask:
+    """What a backend yields for a mapped call it could not complete (its worker died more
+    than :data:`RAY_MAX_RETRIES` times): ``reason`` says why. The runner turns it into a failed
+    fit or failed records of the cell's episodes, so the other results are kept."""
+
+    reason: str
+
+
 def _ray_map(address: str | None, progress: Callable[[Any], None] | None) -> MapFn:
     import ray
+    from ray.exceptions import RayError
 
     if not ray.is_initialized():
         ray.init(address=address, include_dashboard=False, log_to_driver=False,
@@ -412,7 +432,9 @@ def _ray_map(address: str | None, progress: Callable[[Any], None] | None) -> Map
 
     def map_fn(fn: Callable[..., Any],
                arglist: list[tuple[Any, ...]]) -> Iterator[tuple[int, Any]]:
-        remote = ray.remote(fn)
+        # a task whose worker dies is rerun by Ray (retry_exceptions stays off: the mapped
+        # functions turn their own exceptions into results)
+        remote = ray.remote(max_retries=RAY_MAX_RETRIES)(fn)
         futures = [remote.remote(*args) for args in arglist]
         order = {f: i for i, f in enumerate(futures)}
         pending = list(futures)
@@ -420,7 +442,12 @@ def _ray_map(address: str | None, progress: Callable[[Any], None] | None) -> Map
             while pending:
                 done, pending = ray.wait(pending, num_returns=1)
                 for f in done:
-                    res = ray.get(f)
+                    try:
+                        res = ray.get(f)
+                    except RayError as exc:  # its worker died on every try: the others go on
+                        first = (str(exc).strip().splitlines() or [""])[0]
+                        res = LostTask(f"{type(exc).__name__} after {RAY_MAX_RETRIES} "
+                                       f"retries: {first}"[:300])
                     if progress:
                         progress(res)
                     yield order[f], res
@@ -650,7 +677,9 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
         Registered trajectory ids replacing each env's own set.
     backend : {"joblib", "ray"}
         ``joblib`` fans out over local cores; ``ray`` runs the same tasks on a Ray cluster
-        (``address`` of a running cluster, or a local instance when None).
+        (``address`` of a running cluster, or a local instance when None). On Ray, a fit or a
+        cell whose worker dies is rerun (:data:`RAY_MAX_RETRIES` times, the same numbers),
+        then recorded as failed (its reason says the worker was lost); the other runs go on.
     fit_seed : int
         Seed of the fits (training data differ from every evaluation episode): seed ``s`` fits
         with ``fit_seed + FIT_SEED_STRIDE * s`` (with ``nominal``: every fit with ``fit_seed``).
@@ -696,7 +725,10 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
         args = [([fitted[(t.compensator, get_spec(t.env).fit_on, None if nominal else t.seed)]
                   for t in cell], cell, [t.seed == first_seed for t in cell], nominal)
                 for cell in cells.values()]
-        for _, recs in map_fn(_run_cell_task, args):
+        for i, recs in map_fn(_run_cell_task, args):
+            if isinstance(recs, LostTask):  # the cell's worker died on every try
+                recs = [replace(_new_record(t, nominal), status="failed",
+                                reason=f"cell lost: {recs.reason}"[:300]) for t in args[i][1]]
             for rec in recs:
                 rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
                 yield rec
