@@ -313,6 +313,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     records = []
     interrupted = False
+    broken: Exception | None = None
     try:
         for rec in run_benchmark(envs, comps, args.seeds, args.trajectories,
                                  backend=args.backend, n_jobs=args.jobs, address=args.address,
@@ -320,6 +321,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             records.append(rec)
     except KeyboardInterrupt:
         interrupted = True
+    except Exception as exc:  # noqa: BLE001 - a backend that breaks (a lost cluster): keep the
+        broken = exc          # finished runs, as Ctrl-C does
     command = "fricbench " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else \
         "fricbench bench"
     descriptions = {e: (get_spec(e).description, get_spec(e).fit_on) for e in envs}
@@ -333,14 +336,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     _print_act_times(records, args.out)
     print(f"{len(records)} runs ({len(failed)} failed) in {time.perf_counter() - t0:.0f} s; "
           f"wrote {len(paths)} files under {args.out}/")
-    if interrupted:
+    if interrupted or broken is not None:
         done = {(r.env, r.compensator, r.trajectory, r.seed) for r in records}
         missing = [t for t in tasks if (t.env, t.compensator, t.trajectory, t.seed) not in done]
-        print(f"fricbench bench: interrupted: {len(records)} of {len(tasks)} runs finished"
+        why = "interrupted" if broken is None else \
+            f"error: the run stopped ({type(broken).__name__}: {broken})"
+        print(f"fricbench bench: {why}: {len(records)} of {len(tasks)} runs finished"
               f"{' and written' if records else '; nothing written'}; "
               f"{len(missing)} not run:", file=sys.stderr)
         _print_cells([(t.env, t.compensator, t.trajectory, t.seed) for t in missing])
-        return 130
+        return 130 if broken is None else 1
     if failed:
         print(f"fricbench bench: {len(failed)} of {len(records)} runs failed (a failure never "
               f"replaces a good row; each is in <env>.failures.csv):", file=sys.stderr)
@@ -460,7 +465,8 @@ def build_parser() -> argparse.ArgumentParser:
         "bench", help="run compensators on the benchmark envs; write leaderboards",
         description="Run compensators on the benchmark envs and merge the runs into the "
                     "leaderboards. Exit 0 when every run succeeded, 1 when a run failed (the "
-                    "tables keep the last good rows; failures in <env>.failures.csv), 2 on a "
+                    "tables keep the last good rows; failures in <env>.failures.csv) or the "
+                    "backend broke off (finished runs written), 2 on a "
                     "bad option (checked before any fitting), 130 on Ctrl-C (finished runs "
                     "written).")
     p.add_argument("--envs", nargs="+", help="env ids (default: every benchmark env)")

@@ -232,6 +232,28 @@ def test_bench_ctrl_c_writes_finished_runs_and_exits_130(
     assert not list(tmp_path.glob(".*"))  # no temp file left
 
 
+def test_bench_keeps_the_finished_runs_when_the_backend_breaks(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A backend raising mid-run (a Ray cluster lost): the finished runs are written, the
+    others listed, exit 1, no traceback."""
+    real = runner.run_benchmark
+
+    def breaks(*args: object, **kwargs: object) -> Iterator[runner.EpisodeRecord]:
+        yield next(iter(real(*args, **kwargs)))  # type: ignore[arg-type]
+        raise ConnectionError("lost the cluster")
+
+    monkeypatch.setattr(runner, "run_benchmark", breaks)
+    rc = main(["bench", *_ONE_RUN, "--seeds", "0", "1", "--compensators", "none",
+               "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert rc == 1 and "Traceback" not in err
+    assert ("error: the run stopped (ConnectionError: lost the cluster): 1 of 2 runs finished "
+            "and written; 1 not run:") in err
+    with (tmp_path / "PaperAxis-v0.csv").open() as fh:
+        assert [(r["compensator"], r["status"]) for r in csv.DictReader(fh)] == [("none", "ok")]
+
+
 class _Gain(Compensator):
     """Acts ``gain`` every step (its effort shows the gain it was built with)."""
 
