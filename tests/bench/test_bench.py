@@ -224,9 +224,12 @@ def test_rewriting_a_committed_table_drops_only_its_timing_column(tmp_path: Path
     shutil.copy(committed / "PaperAxis-v0.md", tmp_path)
     old_rows = _rows(tmp_path / "PaperAxis-v0.csv")
     old_md = (tmp_path / "PaperAxis-v0.md").read_text().splitlines()
-    command = next(ln for ln in old_md if ln.startswith("- Made by:")).split("`")[1]
-    commit = next(ln for ln in old_md if ln.startswith("- Commit:")).split("`")[1]
     r = next(r for r in old_rows if (r["compensator"], r["seed"]) == ("none", "0"))
+    # the run that wrote the row: its own columns, else (rows from before) the table's
+    command = r.get("command") or next(
+        ln for ln in old_md if ln.startswith("- Made by:")).split("`")[1]
+    commit = r.get("commit") or next(
+        ln for ln in old_md if ln.startswith("- Commit:")).split("`")[1]
     rec = EpisodeRecord(PAPER, "none", r["trajectory"], 0, max_error=float(r["max_um"]) * 1e-6,
                         rms_error=float(r["rms_um"]) * 1e-6,
                         reversal_peak=float(r["reversal_peak_um"]) * 1e-6,
