@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from fricbench.run_events import MotionEvent, motion_events
-from fricbench.sysid.units import POSITION_UNITS, PositionUnit
+from fricbench.units import POSITION_UNITS, PositionUnit
 
 __all__ = ["Run", "RUN_UNITS", "validate_run_arrays"]
 

@@ -7,7 +7,7 @@ EMPS files of ``data/emps`` use other column names, chosen with the keyword argu
 :func:`load_run`. Logs as they come are read too: columns chosen by name or by 0-based index,
 ``,``, ``;`` or tab separators (a decimal comma is refused: numbers must use the C-locale
 point), no time column (a given sample time), positions in mm, um, rad or deg (converted to
-m or rad on reading, see :mod:`fricbench.sysid.units`).
+m or rad on reading, see :mod:`fricbench.units`).
 
 Every problem with the file raises :class:`DataError` with a message that says what is wrong
 and where (line and column); problems that still allow an analysis become warnings on the
@@ -37,7 +37,7 @@ import numpy as np
 
 from fricbench.run import Run, validate_run_arrays
 from fricbench.run_events import hysteresis_sign, motion_events, sign_reversals
-from fricbench.sysid.units import position_unit as _position_unit
+from fricbench.units import position_unit as _position_unit
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
            "TIME_JITTER_TOLERANCE", "RESAMPLE_MAX_JITTER", "MAX_FILE_BYTES", "MAX_ROWS",

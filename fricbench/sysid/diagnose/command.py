@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from fricbench.sysid.units import PositionUnit, position_unit
+from fricbench.units import PositionUnit, position_unit
 
 if TYPE_CHECKING:
     from fricbench.sysid.io import RunData
