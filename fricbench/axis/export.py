@@ -11,8 +11,8 @@ import numpy as np
 
 from fricbench._atomic import atomic_write
 from fricbench.axis.simulate import SimulationResult
-from fricbench.bench.ballbar import ballbar_figure as bench_ballbar_figure
-from fricbench.bench.ballbar import circle_run
+from fricbench.axis.ballbar import ballbar_figure as runs_ballbar_figure
+from fricbench.axis.ballbar import circle_run
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -79,7 +79,7 @@ def radial_deviation(res: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.
 
     The circle is the one :func:`fricbench.trajectories.circle` defines (centre
     ``(-radius, 0)``); the position is the true table position. See
-    :func:`fricbench.bench.ballbar.circle_run`, which this unpacks.
+    :func:`fricbench.axis.ballbar.circle_run`, which this unpacks.
 
     Returns
     -------
@@ -100,11 +100,11 @@ def ballbar_figure(res: SimulationResult, title: str) -> tuple[Figure, float]:
     The radial deviation is magnified ``k`` times (a 1-2-5 number that brings the largest
     deviation to about 30 % of the radius) so that the quadrant glitches at the axis reversals
     (X at 0 and 180 degrees, Y at 90 and 270) stand out; the scale and the ring spacing in um
-    are written on the plot (:func:`fricbench.bench.ballbar.ballbar_figure`). Returns the
+    are written on the plot (:func:`fricbench.axis.ballbar.ballbar_figure`). Returns the
     figure and ``k``.
     """
     run = circle_run(res.reference, np.atleast_2d(res.x_true))
-    return bench_ballbar_figure({"run": run}, title)
+    return runs_ballbar_figure({"run": run}, title)
 
 
 def plot_ballbar(res: SimulationResult, title: str, path: str | os.PathLike[str]) -> float:

@@ -1,7 +1,7 @@
 """Leaderboard files: ``leaderboards/<env>.csv`` (raw rows), ``.md`` (tables), ``plots/``.
 
 The plots are of the first seed: the error against time of each trajectory, and for a circle
-the ballbar picture (:mod:`fricbench.bench.ballbar`; ``plots/<env>_circle_ballbar.png``), a
+the ballbar picture (:mod:`fricbench.axis.ballbar`; ``plots/<env>_circle_ballbar.png``), a
 polar panel per compensator, both linked from the ``.md``.
 
 A cell is one (env, compensator, trajectory, seed). A re-run replaces the rows of the cells it
@@ -53,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from fricbench._atomic import atomic_write
-from fricbench.bench.ballbar import plot_ballbar
+from fricbench.axis.ballbar import plot_ballbar
 from fricbench.bench.runner import EpisodeRecord
 from fricbench.bench.statistics import (
     CONFIDENCE,

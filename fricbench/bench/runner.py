@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from fricbench.axis import Axis
-from fricbench.bench.ballbar import CircleRun, circle_run
+from fricbench.axis.ballbar import CircleRun, circle_run
 from fricbench.bench.metrics import contour_error, score_run
 from fricbench.bench.plants import draw_plant, nominal_told
 from fricbench.compensators import (

@@ -290,7 +290,7 @@ def ballbar_figure(runs: Mapping[str, CircleRun], title: str, *,
     for label, run in runs.items():
         if not isinstance(run, CircleRun):
             raise TypeError(f"runs[{label!r}]={type(run).__name__}: expected a CircleRun "
-                            "(fricbench.bench.ballbar.circle_run)")
+                            "(fricbench.axis.ballbar.circle_run)")
     radii = {run.radius for run in runs.values()}
     if len(radii) > 1:
         raise ValueError(f"runs have radii {sorted(radii)} m: expected one nominal circle")
