@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from fricbench._atomic import atomic_write
-from fricbench.axis.simulate import SimulationResult
 from fricbench.axis.ballbar import ballbar_figure as runs_ballbar_figure
 from fricbench.axis.ballbar import circle_run
+from fricbench.axis.simulate import SimulationResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -1,7 +1,7 @@
 """Run every compensator on every benchmark env x trajectory x seed through the env loop.
 
 Each seed is a machine: its plant is drawn around the env's nominal axis
-(:mod:`fricbench.bench.plants`), the same for every compensator, and every compensator that
+(:mod:`fricbench.axis.variation`), the same for every compensator, and every compensator that
 learns is fitted once per seed on training runs of that seed's plant. ``nominal=True`` runs the
 env's nominal, noise-free axis on every seed, with one fit per env (the benchmark as it was
 before plants were drawn: its seeds are copies).
@@ -24,8 +24,8 @@ import numpy as np
 
 from fricbench.axis import Axis
 from fricbench.axis.ballbar import CircleRun, circle_run
+from fricbench.axis.variation import draw_plant, nominal_told
 from fricbench.bench.metrics import contour_error, score_run
-from fricbench.bench.plants import draw_plant, nominal_told
 from fricbench.compensators import (
     PRECOMP_PREFIX,
     Compensator,
@@ -126,7 +126,7 @@ def plant_axes(env_id: str, seed: int, nominal: bool = False) -> tuple[Axis, Axi
     """``(told, plant)`` of benchmark seed ``seed`` on ``env_id``.
 
     ``told`` is what compensators know (``context.nominal_axis``: the env's nominal axis with the
-    sensor noise levels), ``plant`` the machine simulated (:func:`~fricbench.bench.plants.
+    sensor noise levels), ``plant`` the machine simulated (:func:`~fricbench.axis.variation.
     draw_plant`). With ``nominal`` both are the env's nominal, noise-free axis.
     """
     axis = get_spec(env_id).axis
@@ -671,7 +671,7 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
     comp_ids : sequence of str
         Registered compensator ids.
     seeds : sequence of int
-        Seeds, integers >= 0: each draws the plant (:mod:`fricbench.bench.plants`), the
+        Seeds, integers >= 0: each draws the plant (:mod:`fricbench.axis.variation`), the
         episode's measurement noise and the rehearsal seeds, and has its own fits.
     trajectories : sequence of str, optional
         Registered trajectory ids replacing each env's own set.

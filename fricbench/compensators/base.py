@@ -145,7 +145,7 @@ class Compensator(abc.ABC):
         """Learn from the training setup of ``env_id`` (its axis, training trajectories).
 
         ``axis`` is the machine the training runs are recorded on (the benchmark passes each
-        seed's plant, :func:`fricbench.bench.plants.draw_plant`); ``None``: the env's nominal
+        seed's plant, :func:`fricbench.axis.variation.draw_plant`); ``None``: the env's nominal
         axis. Its parameters are not to be read as known: only its runs are.
 
         The default does nothing; learning compensators override it and set ``_fitted``.

@@ -3,7 +3,7 @@
 Two layers over fricbench's native vector env, neither of which changes it:
 
 * :class:`PlantDrawingVectorEnv` draws a fresh plant for every episode of every sub-env from
-  the benchmark's distribution (:func:`fricbench.bench.plants.draw_plant` around the training
+  the benchmark's distribution (:func:`fricbench.axis.variation.draw_plant` around the training
   env's nominal axis: friction level, static excess ``fs - fc`` above Coulomb, Stribeck
   velocity, mass, damping; encoder noise), the plant seed drawn from the env's own seeded
   generator, and adds the current-measurement noise to the reported motor force as the scalar
@@ -34,7 +34,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepR
 
 from fricbench._validation import check_int, check_nonneg, check_positive
 from fricbench.axis import Axis
-from fricbench.bench.plants import BENCH_VARIATION, PlantVariation, draw_plant, nominal_told
+from fricbench.axis.variation import BENCH_VARIATION, PlantVariation, draw_plant, nominal_told
 from fricbench.compensators.residual_base import ObserverBank
 from fricbench.compensators.training_data import env_setup
 from fricbench.gym.sb3 import SB3VecEnv

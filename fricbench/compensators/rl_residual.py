@@ -25,7 +25,7 @@ training env is not registered here keeps its JSON's newtons.
 
 The shipped policy (``fricbench/policies/rl-residual.*``) was trained by
 ``fricbench train rl-residual`` on ``fricbench/RandomFriction-v0``'s nominal axis with a plant
-drawn per episode from the benchmark's distribution (:data:`fricbench.bench.plants.
+drawn per episode from the benchmark's distribution (:data:`fricbench.axis.variation.
 BENCH_VARIATION`: friction level, static excess above Coulomb, Stribeck velocity, mass and
 damping; encoder and current noise), on seeded ``random`` training references only; its JSON
 records the distribution under ``training.residual``.

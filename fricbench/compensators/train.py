@@ -189,7 +189,7 @@ def residual_validation_score(json_path: str | Path, env_id: str, *, seed: int,
     ``10_000 + seed * n + i`` (far from the benchmark's plants of seeds 0, 1, ...): neither is
     seen in training nor scored by the benchmark.
     """
-    from fricbench.bench.plants import draw_plant, nominal_told
+    from fricbench.axis.variation import draw_plant, nominal_told
     from fricbench.compensators import make_compensator
 
     axis, task = env_setup(env_id)

@@ -90,7 +90,7 @@ class ServoAxisEnv(gym.Env[np.ndarray, np.ndarray]):
     operating point; ``"human"`` draws ``metadata["render_fps"]`` (25) frames per second of
     simulated time and warns once, drawing off-screen, where there is no display), ``plant``
     (an :class:`~fricbench.axis.Axis` simulated in place of ``axis``, such as one the benchmark
-    draws per seed around the nominal: :func:`fricbench.bench.plants.draw_plant`; ``None``: the
+    draws per seed around the nominal: :func:`fricbench.axis.variation.draw_plant`; ``None``: the
     nominal axis itself). With ``effects.current_noise_std > 0`` the motor force of the
     observation carries the current-measurement noise.
 

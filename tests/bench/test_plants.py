@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fricbench.axis import simulate
-from fricbench.bench.plants import BENCH_VARIATION, PlantVariation, draw_plant, nominal_told
+from fricbench.axis.variation import BENCH_VARIATION, PlantVariation, draw_plant, nominal_told
 from fricbench.bench.runner import BenchTask, fit_compensators, plant_axes, run_episode
 from fricbench.compensators import make_compensator
 from fricbench.gym import ServoAxisEnv, get_spec
@@ -147,3 +147,11 @@ def _context(env_id: str, traj: str) -> Any:
     env = ServoAxisEnv(axis=get_spec(env_id).axis, task=get_spec(env_id).task)
     env.reset(seed=0, options={"trajectory": traj})
     return env.episode_context()
+
+
+def test_the_bench_name_re_exports_the_axis_draw() -> None:
+    import fricbench.axis.variation as variation
+    import fricbench.bench.plants as plants
+
+    for name in plants.__all__:
+        assert getattr(plants, name) is getattr(variation, name), name

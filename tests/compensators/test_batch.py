@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fricbench.bench.plants import nominal_told
+from fricbench.axis.variation import nominal_told
 from fricbench.bench.runner import bench_env
 from fricbench.compensators import (
     Compensator,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from fricbench.bench.plants import PlantVariation, draw_plant, nominal_told
+from fricbench.axis.variation import PlantVariation, draw_plant, nominal_told
 from fricbench.bench.runner import bench_env
 from fricbench.compensators import CompensatorError, make_compensator
 from fricbench.compensators.residual_base import ObserverBank, gain_schedule
