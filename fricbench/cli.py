@@ -1,7 +1,7 @@
 """The ``fricbench`` command line: parses arguments, calls library functions, prints.
 
 Subcommands: ``list``, ``simulate``, ``perf``, ``bench``, and those contributed by the
-predictor (``reproduce``), compensator (``train``) and diagnosis (``diagnose``) packages.
+bench (``reproduce``), compensator (``train``) and diagnosis (``diagnose``) packages.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 __all__ = ["main"]
 
 # subcommand modules exposing add_parser(subparsers) and run(args) -> int
-_PLUGGED = ("fricbench.predictors.command", "fricbench.compensators.command",
+_PLUGGED = ("fricbench.bench.reproduce_command", "fricbench.compensators.command",
             "fricbench.sysid.diagnose.command")
 
 

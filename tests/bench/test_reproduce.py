@@ -8,6 +8,7 @@ import json
 import pytest
 
 import fricbench.bench.reproduce as rp
+from fricbench.bench import reproduce_command as command
 from fricbench.bench.reproduce import (
     ReproduceConfig,
     format_report,
@@ -15,7 +16,6 @@ from fricbench.bench.reproduce import (
     reproduce,
     write_json,
 )
-from fricbench.predictors import command
 
 SMOKE = ReproduceConfig(
     predictors=("tf", "tf+lstm", "tf+stribeck"),

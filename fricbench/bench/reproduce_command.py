@@ -1,7 +1,9 @@
 """The ``fricbench reproduce [--json OUT.json] [--plots DIR]`` subcommand.
 
 ``fricbench.cli`` calls :func:`add_parser` on its sub-parsers and :func:`run` with the parsed
-arguments; :func:`main` runs the command on its own (``python -m fricbench.predictors.command``).
+arguments; :func:`main` runs the command on its own
+(``python -m fricbench.bench.reproduce_command``). It drives :mod:`fricbench.bench.reproduce`,
+so it lives beside it in ``bench/``, above the predictors it compares.
 """
 
 from __future__ import annotations
@@ -79,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Stand-alone entry: ``python -m fricbench.predictors.command [--json ...]``."""
+    """Stand-alone entry: ``python -m fricbench.bench.reproduce_command [--json ...]``."""
     parser = argparse.ArgumentParser(prog="fricbench reproduce", description=_DESCRIPTION)
     _add_arguments(parser)
     return run(parser.parse_args(argv))
