@@ -10,12 +10,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import control
 import numpy as np
 
-from fricbench.axis.params import Axis, ControllerParams, Effects, MechanicsParams
+from fricbench.axis.sections import ControllerParams, Effects, MechanicsParams
+
+if TYPE_CHECKING:
+    from fricbench.axis.params import Axis
 
 __all__ = [
     "STABILITY_MARGIN",
