@@ -75,7 +75,8 @@ import numpy as np
 from fricbench._validation import check_positive
 from fricbench.axis import Axis
 from fricbench.compensators.base import Compensator, CompensatorBatch, EpisodeContext
-from fricbench.compensators.kalman import ForceObserver, dob_model
+from fricbench.compensators.dob import dob_model
+from fricbench.compensators.kalman import ForceObserver
 
 __all__ = ["EKFBank", "EKFModel", "ExtendedFrictionObserver", "ekf_model", "ekf_transition",
            "stribeck_shape"]

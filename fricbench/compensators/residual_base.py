@@ -2,7 +2,7 @@
 
 :class:`ObserverBank` runs ``N`` copies of the Kalman disturbance observer of
 :mod:`fricbench.compensators.kalman` side by side, as numpy over the rows: the same model
-(:func:`~fricbench.compensators.kalman.dob_model`), the same initial state and covariance, the
+(:func:`~fricbench.compensators.dob.dob_model`), the same initial state and covariance, the
 same order of predict and update as filterpy's ``KalmanFilter``, the same output
 ``u = clip(-gain d_hat, +-limit)``. A row's numbers never depend on the other rows. One bank
 serves ``kalman`` itself and both sides of the residual policy: the training env
@@ -29,7 +29,7 @@ import numpy as np
 from fricbench._validation import check_int, check_nonneg, check_positive
 from fricbench.axis import Axis
 from fricbench.compensators.base import EpisodeContext, feature_index
-from fricbench.compensators.kalman import dob_model, initial_covariance
+from fricbench.compensators.dob import dob_model, initial_covariance
 
 __all__ = ["EpisodeObservers", "ObserverBank", "gain_schedule"]
 
