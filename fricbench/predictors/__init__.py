@@ -31,32 +31,10 @@ from fricbench.predictors.base import (
     PredictorFileError,
     Run,
 )
-from fricbench.registry import Registry
+from fricbench.predictors.registered import predictor_registry
 
 __all__ = ["Predictor", "Run", "NotFittedError", "PredictorFileError", "predictor_registry",
            "make_predictor"]
-
-predictor_registry: Registry[Predictor] = Registry("predictor", "fricbench.predictors")
-
-_LSTM = "fricbench.predictors.lstm:TFLSTMPredictor"
-predictor_registry.register("tf", "fricbench.predictors.tf:TFPredictor",
-                            description="transfer function only")
-predictor_registry.register("tf+lstm", _LSTM,
-                            description="the paper: TF + LSTM on reference velocity and "
-                                        "acceleration")
-predictor_registry.register("tf+stribeck", "fricbench.predictors.stribeck:TFStribeckPredictor",
-                            description="TF + fitted Stribeck friction through the known "
-                                        "loop's disturbance path")
-predictor_registry.register("tf+lstm-phys", _LSTM, kwargs={"features": "physical"},
-                            description="TF + LSTM on physical stick-slip features")
-predictor_registry.register("greybox", "fricbench.predictors.greybox:GreyBoxPredictor",
-                            description="identified closed loop (cascade, mass, Stribeck "
-                                        "friction with stiction), run free on the reference")
-predictor_registry.register("greybox+lstm", _LSTM,
-                            kwargs={"base": "greybox", "features": "physical",
-                                    "target": "residual"},
-                            description="greybox plus an LSTM on physical features trained on "
-                                        "its residual")
 
 
 def make_predictor(id: str, **params: Any) -> Predictor:

@@ -366,7 +366,7 @@ def _registered_id(klass: type[Predictor], params: dict[str, Any]) -> str:
     with ``features="physical"``); the saved parameters are complete, so any of them loads
     the same predictor.
     """
-    from fricbench.predictors import predictor_registry
+    from fricbench.predictors.registered import predictor_registry
 
     best: tuple[int, str] | None = None
     for pid in predictor_registry.ids():
@@ -392,7 +392,7 @@ def _resolve_class(path: Path, value: Any) -> type[Predictor]:
     (files written before ids were stored); the class is then loaded from the registry's own
     entry point. A module named only by the file is never imported.
     """
-    from fricbench.predictors import predictor_registry
+    from fricbench.predictors.registered import predictor_registry
 
     if not isinstance(value, str):
         raise PredictorFileError(f"{path}: config.json class={_short(value)}: expected a "
