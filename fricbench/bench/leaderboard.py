@@ -48,7 +48,7 @@ import os
 from collections import defaultdict
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -65,6 +65,9 @@ from fricbench.bench.statistics import (
     paired_difference,
     unpaired_difference,
 )
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "CSV_COLUMNS",
@@ -542,28 +545,56 @@ def _target_lines(summary: dict[str, dict[str, dict[str, float]]], env_id: str) 
     return lines
 
 
-def _plot(env_id: str, trajectory: str, records: Sequence[EpisodeRecord], path: Path) -> None:
+_TRACE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+                 "tab:pink", "tab:olive", "tab:cyan")
+_TRACE_DASHES = ("-", (0, (5, 1.5)), (0, (3, 1, 1, 1)), (0, (1, 1)))
+"""Colour and dash of the i-th compensator's trace: ``(i mod 9, i mod 4)``, a distinct pair for
+up to 36 compensators (``none`` is the grey baseline)."""
+
+
+def _trace_figure(env_id: str, trajectory: str, records: Sequence[EpisodeRecord]) -> Figure:
+    """The error traces of ``records`` on one axis: ``none`` as a wide grey baseline at the
+    bottom, every other compensator in its own colour and dash, drawn in order of decreasing
+    maximum error (the smallest error on top, where the traces crowd about zero), the legend
+    outside the axes."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(9, 4.5), dpi=100)
+    fig = Figure(figsize=(11, 4.5), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     # two-axis runs trace their contour error (the scored quantity): the envs' axis count
     contour = any(r.circular_deviation is not None and np.isfinite(r.circular_deviation)
                   for r in records)
-    for r in sorted(records, key=lambda r: (r.compensator != "none", r.compensator)):
-        if r.trace_t is None or r.trace_error is None:
+    traced = [(r, r.trace_t, r.trace_error * 1e6)
+              for r in sorted(records, key=lambda r: (r.compensator != "none", r.compensator))
+              if r.trace_t is not None and r.trace_error is not None]
+    # z-order: the larger the maximum error, the lower the trace
+    by_size = sorted((r for r, _, _ in traced),
+                     key=lambda r: -r.max_error if np.isfinite(r.max_error) else 0.0)
+    z = {r.compensator: 2.0 + i for i, r in enumerate(by_size)}
+    i = 0
+    for r, t, e_um in traced:
+        label = f"{r.compensator} (max |e| {r.max_error * 1e6:.1f} um)"
+        if r.compensator == "none":
+            ax.plot(t, e_um, color="0.6", lw=2.4, zorder=1.0, label=label)
             continue
-        ax.plot(r.trace_t, r.trace_error * 1e6, lw=1.0 if r.compensator != "none" else 1.6,
-                label=f"{r.compensator} (max |e| {r.max_error * 1e6:.1f} um)")
+        ax.plot(t, e_um, color=_TRACE_COLORS[i % len(_TRACE_COLORS)],
+                linestyle=_TRACE_DASHES[i % len(_TRACE_DASHES)], lw=1.1, alpha=0.85,
+                zorder=z[r.compensator], label=label)
+        i += 1
     ax.set_title(f"{env_id}: {trajectory}, seed {records[0].seed}"
                  + (" (maxima over the full-rate run)" if contour else ""))
     ax.set_xlabel("time [s]")
     ax.set_ylabel("contour error [um]" if contour else "tracking error [um]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right", ncol=2)
-    fig.tight_layout()
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+              title="smaller max |e| drawn on top", title_fontsize=7)
+    return fig
+
+
+def _plot(env_id: str, trajectory: str, records: Sequence[EpisodeRecord], path: Path) -> None:
+    fig = _trace_figure(env_id, trajectory, records)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     atomic_write(path, buf.getvalue())
