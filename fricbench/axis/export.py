@@ -17,7 +17,8 @@ from fricbench.axis.simulate import SimulationResult
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["ballbar_figure", "plot_ballbar", "plot_run", "radial_deviation", "write_csv"]
+__all__ = ["ballbar_figure", "plot_ballbar", "plot_run", "radial_deviation", "run_figure",
+           "write_csv"]
 
 
 def write_csv(res: SimulationResult, path: str | os.PathLike[str]) -> list[str]:
@@ -42,8 +43,13 @@ def write_csv(res: SimulationResult, path: str | os.PathLike[str]) -> list[str]:
     return cols
 
 
-def plot_run(res: SimulationResult, title: str, path: str | os.PathLike[str]) -> None:
-    """Reference and measured position (mm) above the tracking error (um), as a PNG."""
+def run_figure(res: SimulationResult, title: str) -> Figure:
+    """Reference and measured position (mm) above the tracking error (um).
+
+    The measured position is a wide, pale line under the reference, which is a thin black dashed
+    line on top: where the axis tracks well, the reference stays visible inside the measured
+    trace instead of under it.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -52,10 +58,13 @@ def plot_run(res: SimulationResult, title: str, path: str | os.PathLike[str]) ->
     a1, a2 = fig.subplots(2, 1, sharex=True)
     x_ref, x, err = (np.atleast_2d(a) for a in (res.x_ref, res.x, res.error))
     for i in range(x_ref.shape[0]):
-        a1.plot(res.t, x_ref[i] * 1e3, "k--", lw=1, label="reference" if i == 0 else None)
-        a1.plot(res.t, x[i] * 1e3, lw=1, label=f"measured axis {i}")
+        color = f"C{i}"
+        a1.plot(res.t, x[i] * 1e3, color=color, lw=3.0, alpha=0.45, zorder=2,
+                label=f"measured x, axis {i}")
+        a1.plot(res.t, x_ref[i] * 1e3, color="k", linestyle=(0, (4, 2)), lw=1.0, zorder=3,
+                label="reference x_ref (dashed)" if i == 0 else None)
         # the legend states the maximum of the very curve it names
-        a2.plot(res.t, err[i] * 1e6, lw=1,
+        a2.plot(res.t, err[i] * 1e6, color=color, lw=1,
                 label=f"axis {i} (max |e| {np.abs(err[i]).max() * 1e6:.2f} um)")
     a1.set_ylabel("position [mm]")
     a1.legend(fontsize=8)
@@ -65,7 +74,12 @@ def plot_run(res: SimulationResult, title: str, path: str | os.PathLike[str]) ->
     a2.legend(fontsize=8)
     a2.grid(alpha=0.3)
     fig.tight_layout()
-    _save_png(fig, path)
+    return fig
+
+
+def plot_run(res: SimulationResult, title: str, path: str | os.PathLike[str]) -> None:
+    """Write :func:`run_figure` as a PNG (atomically)."""
+    _save_png(run_figure(res, title), path)
 
 
 def _save_png(fig: Figure, path: str | os.PathLike[str]) -> None:

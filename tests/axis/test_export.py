@@ -1,4 +1,4 @@
-"""The pictures of a simulated run: the ballbar (polar) plot of a circle run."""
+"""The pictures of a simulated run: position and error, and the ballbar plot of a circle run."""
 
 from __future__ import annotations
 
@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 
 from fricbench.axis import simulate
-from fricbench.axis.export import ballbar_figure, plot_ballbar, radial_deviation
+from fricbench.axis.export import (
+    ballbar_figure,
+    plot_ballbar,
+    plot_run,
+    radial_deviation,
+    run_figure,
+)
 from fricbench.gym import get_spec
 from fricbench.trajectories import make_trajectory
 
@@ -56,3 +62,26 @@ def test_ballbar_refuses_a_single_axis_run() -> None:
     res = simulate(axis, make_trajectory("s_curve", ts=axis.controller.ts), seed=0)
     with pytest.raises(ValueError, match="needs a 'circle' run"):
         radial_deviation(res)
+
+
+def test_the_reference_is_drawn_over_the_measured_position(circle_run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    fig = run_figure(circle_run, "circle")
+    top, bottom = fig.axes
+    lines = top.get_lines()
+    refs = [ln for ln in lines if ln.get_color() == "k"]
+    measured = [ln for ln in lines if ln not in refs]
+    assert len(refs) == len(measured) == 2  # one of each per axis
+    labels = [str(ln.get_label()) for ln in lines]
+    assert "reference x_ref (dashed)" in labels
+    assert "measured x, axis 0" in labels and "measured x, axis 1" in labels
+    for ref in refs:
+        assert ref.get_linestyle() != "-"  # dashed
+        assert ref.get_zorder() > max(ln.get_zorder() for ln in measured)
+        assert ref.get_linewidth() < min(ln.get_linewidth() for ln in measured)
+    legend = top.get_legend()
+    assert legend is not None and {t.get_text() for t in legend.get_texts()} >= {
+        "reference x_ref (dashed)", "measured x, axis 0"}
+    assert top.get_ylabel() == "position [mm]" and bottom.get_xlabel() == "time [s]"
+    path = tmp_path / "run.png"
+    plot_run(circle_run, "circle", path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
