@@ -43,6 +43,10 @@ __all__ = [
 BALLBAR_FILL = 0.3
 """The largest radial deviation is magnified to about this fraction of the radius."""
 
+RING_LABEL_ANGLE = 45.0
+"""Angle of the ring labels, degrees: midway between the quadrant points, where the path is
+calm."""
+
 REST_SPEED = 1e-6
 """Reference path speed below which a sample is at rest (no sense of rotation), m/s."""
 
@@ -234,11 +238,18 @@ def _panel(ax: Any, run: CircleRun, k: float, step: float, span: float, title: s
     keep = np.abs(k * ticks) < 0.9 * run.radius
     n_ticks, ticks = n_ticks[keep], ticks[keep]
     ax.set_rticks((run.radius + k * ticks) * 1e3)
-    # a small panel labels every other ring: the labels would overlap
-    ax.set_yticklabels([("0" if not t else f"{t * 1e6:+g} um") if legend or n % 2 == 0 else ""
-                        for n, t in zip(n_ticks, ticks, strict=True)], fontsize=7)
     ax.set_rlim(0.0, (run.radius + k * span) * 1e3)
-    ax.set_rlabel_position(45.0)
+    # the ring labels are texts of their own, not tick labels (each ring is drawn after the
+    # previous ring's label and struck it out): centred on their ring at 45 degrees, between
+    # the quadrant glitches, on an opaque patch above the rings and the traces. A small panel
+    # labels every other ring: the labels would overlap
+    ax.set_yticklabels([])
+    for n, t in zip(n_ticks, ticks, strict=True):
+        if legend or n % 2 == 0:
+            ax.text(np.deg2rad(RING_LABEL_ANGLE), (run.radius + k * t) * 1e3,
+                    "0" if not t else f"{t * 1e6:+g} um", fontsize=7, ha="center",
+                    va="center", zorder=6.0, gid="ring-label",
+                    bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.9, "pad": 0.8})
     ax.set_xticks(np.deg2rad([0, 90, 180, 270]))
     if legend:
         ax.set_xticklabels(["0°\nX reverses", "90°\nY reverses", "180°\nX reverses",

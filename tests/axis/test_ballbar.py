@@ -167,3 +167,28 @@ def test_figure_refuses_what_it_cannot_draw() -> None:
         ballbar_figure({"a": _synthetic(1e-6)}, "t", magnification=0)
     with pytest.raises(TypeError, match=r"runs\['a'\]"):
         ballbar_figure({"a": np.zeros(3)}, "t")  # type: ignore[dict-item]
+
+
+@pytest.mark.parametrize("n_runs", [1, 3])
+def test_ring_labels_lie_on_patches_above_the_rings_and_apart(n_runs: int) -> None:
+    runs = {name: _synthetic(p) for name, p in zip("abc", (18e-6, 6e-6, 2e-6), strict=True)}
+    fig, k = ballbar_figure(dict(list(runs.items())[:n_runs]), "t")
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    for ax in (a for a in fig.axes if a.name == "polar"):
+        # no tick label to strike through: the rings carry no text of their own
+        assert not any(t.get_text() for t in ax.get_yticklabels())
+        labels = [t for t in ax.texts if t.get_gid() == "ring-label"]
+        assert "0" in [t.get_text() for t in labels] and len(labels) >= 2
+        rings = np.asarray(ax.get_yticks())
+        top = max([ln.get_zorder() for ln in ax.get_lines()] + [ax.yaxis.get_zorder()])
+        boxes = []
+        for t in labels:
+            assert t.get_zorder() > top
+            patch = t.get_bbox_patch()
+            assert patch is not None and patch.get_facecolor()[3] >= 0.85
+            # centred on its ring
+            assert np.min(np.abs(rings - t.get_position()[1])) < 1e-9
+            boxes.append(patch.get_window_extent(renderer))
+        for i, a in enumerate(boxes):
+            assert not any(a.overlaps(b) for b in boxes[i + 1:])
