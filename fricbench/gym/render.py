@@ -182,6 +182,7 @@ class AxisFigure:
         ax_x.set_ylim(*pad(tr.x_ref.min() * 1e3, tr.x_ref.max() * 1e3))
         ax_v.set_ylim(*pad(tr.v_ref.min() * 1e3, tr.v_ref.max() * 1e3))
         ax_x.set_ylabel("position [mm]")
+        ax_x.set_xlabel("time [s]")
         ax_x.legend(loc="best", fontsize=7)
         ax_v.set_ylabel("velocity [mm/s]")
         ax_v.set_title("velocity (dashed: reference)", fontsize=9)

@@ -75,6 +75,22 @@ def test_picture_shows_the_trace_and_the_operating_point_on_the_friction_law() -
     env.close()
 
 
+def test_every_panel_names_both_of_its_axes() -> None:
+    env = paper_env("rgb_array")
+    env.reset(seed=0, options={"trajectory": short_move()})
+    env.step(np.zeros(1))
+    env.render()
+    fig = env._fig
+    assert fig is not None
+    panels = fig.fig.axes
+    assert len(panels) == 4
+    for ax in panels:
+        assert ax.get_xlabel() and ax.get_ylabel(), ax.get_title() or ax.get_ylabel()
+    # the three time panels share the time axis and say so
+    assert [ax.get_xlabel() for ax in panels[:3]] == ["time [s]"] * 3
+    env.close()
+
+
 def expected_human_frames(n_samples: int, fps: float) -> int:
     """Frames at t = 0, at the first sample of each 1/fps slot, and at the last sample."""
     slots = np.floor(np.arange(n_samples) * TS * fps + 1e-9).astype(int)
