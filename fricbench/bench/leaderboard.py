@@ -374,7 +374,7 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     if plants == ["seed"]:
         out.write("- Plants: each seed is a machine drawn around the env's nominal axis "
                   "(friction levels, Stribeck velocity, mass, damping; encoder and current "
-                  "noise: `fricbench/axis/variation.py`), the same for every compensator; each "
+                  "noise: `fricbench/bench/plants.py`), the same for every compensator; each "
                   "compensator that learns is fitted on training runs of that seed's plant\n")
     elif plants == ["nominal"]:
         out.write("- Plants: the env's nominal, noise-free axis on every seed (`--nominal`): "
