@@ -142,8 +142,8 @@ def bench_env(env_id: str, compensator: Compensator, seed: int | None = None,
     spec = get_spec(env_id)
     task = spec.task
     if compensator.action_mode != task.action:
-        scale = float(getattr(compensator, "action_scale", 1e-4 if
-                              compensator.action_mode == "offset" else task.action_scale))
+        scale = (task.offset_scale if compensator.action_mode == "offset" else
+                 float(getattr(compensator, "action_scale", task.action_scale)))
         task = replace(task, action=compensator.action_mode, action_scale=scale)
     told, plant = plant_axes(env_id, 0 if seed is None else seed, nominal or seed is None)
     return ServoAxisEnv(axis=told, task=task, plant=plant)

@@ -10,7 +10,7 @@ time with a new noise seed) and a feedforward ``u`` is learned from the measured
 "serial" architecture of CNC ILC: the learned correction is added to the position command,
 and its backward-difference rate to the velocity feedforward, as the drive does).
 :class:`ForceILC` learns a force at the velocity-loop output instead (the "parallel"
-architecture); it is not registered by default because the env's action range (600 N) is
+architecture); it is not registered by default because the paper axis's action range (600 N) is
 smaller than friction plus the un-fed-forward inertia ``M a`` on fast references, so its
 learning saturates (see ``docs/compensators.md``).
 
@@ -28,6 +28,10 @@ learning saturates (see ``docs/compensators.md``).
   learned up to about that frequency, above it the iteration is left alone.
 * ``gamma`` in (0, 1]: learning gain; smaller is slower but smoother under the stick-slip
   nonlinearity of friction.
+
+The learned offset is clipped to the env's action range (``context.task.action_scale``: the
+bench gives an offset compensator :attr:`~fricbench.gym.task.TaskConfig.offset_scale`, sized from
+the env's own tracking-error scale).
 
 After ``iterations`` rehearsals the input with the smallest *measured* max |e| is kept (the
 safeguard an operator uses on a machine; ``keep="last"`` takes the latest update instead).
@@ -123,8 +127,6 @@ class IterativeLearningControl(Compensator):
     action_mode: ClassVar[str] = "offset"
     learns: ClassVar[bool] = False
     category: ClassVar[str] = "trials"
-    #: preferred env ``action_scale`` in offset mode, m per unit action
-    action_scale: ClassVar[float] = 1.0e-4
 
     def __init__(self, *, iterations: int = 30, gain: float = 0.5, q_cutoff: float = 150.0,
                  q_order: int = 2, beta: float = 1e-2, keep: str = "best",
@@ -218,4 +220,3 @@ class ForceILC(IterativeLearningControl):
 
     id = "ilc-force"
     action_mode: ClassVar[str] = "force"
-    action_scale: ClassVar[float] = 600.0

@@ -9,7 +9,8 @@ reference is computed once by
 :func:`fricbench.predictors.precomp.precompensation_offset` (the reference is shifted by the
 predicted error, ``iterations`` times refined on the predictor, each step scaled by ``gain``
 and applied ``advance`` samples early), and :meth:`act` replays it.
-The env runs in offset mode with ``action_scale`` m per unit action.
+The env runs in offset mode with ``action_scale`` m per unit action (the bench sizes it from the
+env's own tracking-error scale: :attr:`fricbench.gym.task.TaskConfig.offset_scale`).
 """
 
 from __future__ import annotations
@@ -67,8 +68,6 @@ class Precompensation(Compensator):
     action_mode: ClassVar[str] = "offset"
     learns: ClassVar[bool] = True
     category: ClassVar[str] = "model"
-    #: preferred env ``action_scale`` in offset mode, m per unit action
-    action_scale: ClassVar[float] = 1.0e-4
 
     def __init__(self, *, predictor: str = "tf", n_runs: int = 4, run_duration: float = 20.0,
                  iterations: int = 1, gain: float = 1.0, advance: int = 0,

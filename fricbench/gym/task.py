@@ -30,6 +30,7 @@ from fricbench.friction import make_friction
 from fricbench.trajectories import Reference, make_trajectory
 
 __all__ = [
+    "OFFSET_RANGE",
     "REFERENCE_BYTES_PER_SAMPLE",
     "ObservationConfig",
     "Randomization",
@@ -168,6 +169,14 @@ class TrajectoryChoice:
         return self.id == "random" and "seed" not in self.params
 
 
+OFFSET_RANGE = 10.0
+"""Reach of a unit reference-offset action in units of the env's tracking-error scale
+(``observation.error_scale``): a pre-compensator's offset is of the order of the error it
+removes, so the range is sized from the env's own error, an order of magnitude above it
+(:meth:`TaskConfig.offset_scale`; 10 um -> 0.1 mm on the paper axis, 0.578 mm -> 5.78 mm on the
+EMPS twin, whose error is the lag of a loop without feedforward)."""
+
+
 @dataclass(frozen=True)
 class TaskConfig:
     """Everything about an env besides the axis.
@@ -198,6 +207,15 @@ class TaskConfig:
             raise ValueError("trajectories=(): expected at least one trajectory")
         check_choice("action", self.action, ("force", "offset"))
         check_positive("action_scale", self.action_scale)
+
+    @property
+    def offset_scale(self) -> float:
+        """Size of a unit reference-offset action on this env, m: the spec's ``action_scale``
+        when the env acts by offset, else :data:`OFFSET_RANGE` times ``observation.error_scale``
+        (the action range a compensator acting by offset gets on a force env)."""
+        if self.action == "offset":
+            return self.action_scale
+        return OFFSET_RANGE * self.observation.error_scale
 
     @classmethod
     def from_dict(cls, spec: Mapping[str, Any]) -> TaskConfig:
