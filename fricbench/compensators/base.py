@@ -167,6 +167,12 @@ class Compensator(abc.ABC):
             Naming the file and what is wrong with it.
         """
 
+    def env_note(self, env_id: str) -> str:
+        """A sentence for the leaderboard of ``env_id`` about how this compensator runs there
+        (a part it leaves off on that env, and why); ``""``: nothing to say. Computed without
+        fitting (the leaderboard asks every compensator of its table)."""
+        return ""
+
     # -- episode ------------------------------------------------------------------------------
     def reset(self, context: EpisodeContext, *, seed: int | None = None) -> None:
         """Start an episode on ``context.reference``."""

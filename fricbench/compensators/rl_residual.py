@@ -29,11 +29,22 @@ drawn per episode from the benchmark's distribution (:data:`fricbench.axis.varia
 BENCH_VARIATION`: friction level, static excess above Coulomb, Stribeck velocity, mass and
 damping; encoder and current noise), on seeded ``random`` training references only; its JSON
 records the distribution under ``training.residual``.
+
+A policy acts only within what it was trained on: the training env's loop (its controller, the
+integration substeps aside) and its mass and damping within the plants' spread (the JSON's
+``training.residual.sigma``, truncated at :data:`fricbench.bench.plants.TRUNCATION` sigmas). On
+another axis (:func:`residual_scope` says why: the EMPS twin's P loop without feedforward and
+95 kg, against the paper axis's cascade and 400 kg) the compensator runs its base alone
+(``residual_off_`` holds the reason, :meth:`ResidualRLCompensator.env_note` gives it to the
+leaderboard): a residual learnt on another loop made the EMPS twin's error larger than the base
+alone (653.4 against 649.1 um on m_serial, median of 10 plants).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -46,13 +57,14 @@ from fricbench.compensators.base import (
     CompensatorError,
     EpisodeContext,
 )
+from fricbench.compensators.kalman import _KalmanBatch, _observer_action
 from fricbench.compensators.residual_base import EpisodeObservers
 from fricbench.compensators.rl import load_policy_for, shipped_policy
 from fricbench.compensators.rl_policy import NumpyPolicy
 from fricbench.compensators.training_data import env_setup
 from fricbench.gym.task import n_features
 
-__all__ = ["ResidualRLCompensator", "base_settings"]
+__all__ = ["ResidualRLCompensator", "base_settings", "residual_scope"]
 
 
 def base_settings(training: Mapping[str, Any], path: str | Path) -> tuple[float, float]:
@@ -79,6 +91,48 @@ def base_settings(training: Mapping[str, Any], path: str | Path) -> tuple[float,
     return vals[0], vals[1]
 
 
+def _loop_text(axis: Axis) -> str:
+    c = axis.controller
+    if c.law == "linear":
+        return "a linear control law"
+    return (f"a cascade, kp={c.kp:g} 1/s, kvff={c.kvff:g}, kv={c.kv:g} A s/m, ti={c.ti:g} s, "
+            f"kt={c.kt:g} N/A")
+
+
+def residual_scope(train_axis: Axis, axis: Axis, sigma: Mapping[str, Any]) -> str:
+    """Why a residual trained around ``train_axis`` does not apply to ``axis``; ``""`` when
+    it does.
+
+    It applies when ``axis`` runs the training axis's controller (the integration substeps
+    aside) and its mass and damping lie within the training plants' spread: factors
+    ``exp(+-TRUNCATION sigma)`` of the training axis's, ``sigma`` the JSON's
+    ``training.residual.sigma`` (a missing entry: no spread).
+
+    Parameters
+    ----------
+    train_axis : Axis
+        Nominal axis of the policy's training env.
+    axis : Axis
+        Nominal axis of the env it is to run on.
+    sigma : mapping
+        Log-normal sigmas of the training plants (``mass``, ``damping``).
+    """
+    from fricbench.bench.plants import TRUNCATION
+
+    reasons = []
+    if replace(axis.controller, n_substeps=train_axis.controller.n_substeps) \
+            != train_axis.controller:
+        reasons.append(f"its loop is {_loop_text(axis)}, the policy's "
+                       f"{_loop_text(train_axis)}")
+    for name, unit in (("mass", "kg"), ("damping", "N s/m")):
+        trained, here = getattr(train_axis.mechanics, name), getattr(axis.mechanics, name)
+        spread = math.exp(TRUNCATION * float(sigma.get(name, 0.0)))
+        if not trained / spread <= here <= trained * spread:
+            reasons.append(f"its {name} {here:.4g} {unit} lies outside the training plants' "
+                           f"{trained / spread:.4g} .. {trained * spread:.4g} {unit}")
+    return "; ".join(reasons)
+
+
 class ResidualRLCompensator(Compensator):
     """The ``kalman`` observer's force plus a trained policy's residual force.
 
@@ -94,6 +148,9 @@ class ResidualRLCompensator(Compensator):
         The loaded actor (after :meth:`fit`).
     bandwidth_, gain_ : float
         The base observer's settings, read from the policy (those it was trained on).
+    residual_off_ : str
+        Why the residual is off on the fitted env, which then gets the base alone
+        (:func:`residual_scope`); ``""`` when the residual acts.
     """
 
     id = "rl-residual"
@@ -128,6 +185,7 @@ class ResidualRLCompensator(Compensator):
         pol, (self.bandwidth_, self.gain_) = self._load(env_id)
         spec = pol.spec
         self.policy_: NumpyPolicy = pol
+        self.residual_off_ = self._scope(env_id)
         try:  # the force unit the policy learned in (see the module docstring)
             self.train_force_scale_: float | None = \
                 env_setup(spec.env_id)[1].observation.force_scale
@@ -159,6 +217,31 @@ class ResidualRLCompensator(Compensator):
                                    f"{nf} and the base's estimate) and 1 action per axis")
         return pol, base
 
+    def _scope(self, env_id: str) -> str:
+        """:func:`residual_scope` of the loaded policy on ``env_id`` (``""`` when the policy's
+        training env is not registered here: nothing to compare with)."""
+        spec = self.policy_.spec
+        try:
+            train_axis = env_setup(spec.env_id)[0]
+        except (KeyError, ValueError):
+            return ""
+        res = spec.training.get("residual")
+        sigma = res.get("sigma", {}) if isinstance(res, Mapping) else {}
+        return residual_scope(train_axis, env_setup(env_id)[0],
+                              sigma if isinstance(sigma, Mapping) else {})
+
+    def env_note(self, env_id: str) -> str:
+        """Why this compensator runs its base alone on ``env_id`` (``""`` when its residual
+        acts there); loads the policy, trains nothing."""
+        if getattr(self, "policy_", None) is None:
+            self.policy_ = load_policy_for(self, self.policy_path, env_id)[0]
+        reason = self._scope(env_id)
+        if not reason:
+            return ""
+        return (f"`{self.id}` is its base `kalman` alone here: its policy was trained on "
+                f"`{self.policy_.spec.env_id}` plants, and this env's axis is outside them "
+                f"({reason})")
+
     def _reset(self, context: EpisodeContext, seed: int | None) -> None:
         nf = n_features(context.task.observation)
         if nf + 1 != self.policy_.spec.obs_dim:
@@ -169,6 +252,8 @@ class ResidualRLCompensator(Compensator):
         self._observers = EpisodeObservers(context, bandwidth=self.bandwidth_, gain=self.gain_)
 
     def _act(self, observation: np.ndarray) -> np.ndarray:
+        if self.residual_off_:
+            return _observer_action(self._observers, observation[None])
         return _residual_action(self._observers, self.policy_, self._nf, observation[None],
                                 self.train_force_scale_)
 
@@ -183,12 +268,15 @@ class ResidualRLCompensator(Compensator):
         first = comps[0] if len(comps) == len(members) else None
         if first is None or not all(c._nf == first._nf and first.policy_.same_as(c.policy_)
                                     and c.train_force_scale_ == first.train_force_scale_
+                                    and c.residual_off_ == first.residual_off_
                                     for c in comps):
             return default
         try:
             observers = EpisodeObservers.stack([c._observers for c in comps])
         except ValueError:
             return default
+        if first.residual_off_:
+            return _KalmanBatch(comps, observers)
         return _ResidualBatch(comps, observers, first.policy_, first._nf,
                               first.train_force_scale_)
 

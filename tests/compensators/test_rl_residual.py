@@ -247,3 +247,47 @@ def test_check_setup_loads_the_policy_without_fitting(tmp_path: Path) -> None:
     with pytest.raises(CompensatorError, match="sac.json"):
         make_compensator("rl-residual", policy=str(sac)).check_setup(ENV)
     assert not hasattr(comp, "policy_")  # nothing kept: fit() still required
+
+def test_outside_its_training_axis_the_residual_is_off_and_the_base_acts_alone() -> None:
+    """On the EMPS twin (another loop, a quarter of the mass) the shipped residual is off:
+    every action is kalman's, bit for bit, alone and stepped in a batch; the table is told
+    why. On the paper axis it acts."""
+    emps = "fricbench/EMPS-v0"
+    res = make_compensator("rl-residual").fit(emps)
+    assert "linear control law" in res.residual_off_ and "mass" in res.residual_off_
+    note = make_compensator("rl-residual").env_note(emps)
+    assert "`kalman` alone" in note and "RandomFriction-v0" in note
+    a_res, a_kal = _run_pair(res, make_compensator("kalman").fit(emps), emps,
+                             trajectory="reversal_sine")
+    assert np.array_equal(a_res, a_kal)
+    members = []
+    for seed in (1, 2):
+        comp = make_compensator("rl-residual").fit(emps)
+        env = bench_env(emps, comp, seed=seed)
+        obs, _ = env.reset(seed=seed, options={"trajectory": "reversal_sine"})
+        comp.reset(env.episode_context(), seed=seed)
+        members.append((comp, obs))
+    batch = type(members[0][0]).batch([m for m, _ in members])
+    assert type(batch).__name__ == "_KalmanBatch"
+    paper = make_compensator("rl-residual").fit(ENV)
+    assert paper.residual_off_ == "" and paper.env_note(ENV) == ""
+
+
+def test_residual_scope_names_what_lies_outside_the_training_plants() -> None:
+    from dataclasses import replace
+
+    from fricbench.compensators.rl_residual import residual_scope
+
+    axis = get_spec(ENV).axis
+    sigma = {"mass": 0.05, "damping": 0.2}
+    assert residual_scope(axis, axis, sigma) == ""
+    # within exp(2 sigma) of the mass: in; beyond: out, with the range
+    heavier = replace(axis, mechanics=replace(axis.mechanics, mass=440.0))
+    assert residual_scope(axis, heavier, sigma) == ""
+    heavier = replace(axis, mechanics=replace(axis.mechanics, mass=450.0))
+    assert "mass 450 kg lies outside" in residual_scope(axis, heavier, sigma)
+    # the substeps are the simulation's, not the loop's; a gain is the loop's
+    finer = replace(axis, controller=replace(axis.controller, n_substeps=10))
+    assert residual_scope(axis, finer, sigma) == ""
+    other = replace(axis, controller=replace(axis.controller, kp=100.0))
+    assert "kp=100" in residual_scope(axis, other, sigma)
