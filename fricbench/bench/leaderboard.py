@@ -54,6 +54,7 @@ import numpy as np
 
 from fricbench._atomic import atomic_write
 from fricbench.axis.ballbar import plot_ballbar
+from fricbench.bench.error_budget import header_lines
 from fricbench.bench.runner import EpisodeRecord
 from fricbench.bench.statistics import (
     CONFIDENCE,
@@ -371,6 +372,7 @@ def _markdown(env_id: str, rows: list[dict[str, str]], failures: list[dict[str, 
     out = io.StringIO()
     out.write(f"# Leaderboard: `{env_id}`\n\n{description}\n\n")
     out.writelines(_provenance_lines(rows, seeds))
+    out.writelines(header_lines(env_id, trajs, comps))
     if plants == ["seed"]:
         out.write("- Plants: each seed is a machine drawn around the env's nominal axis "
                   "(friction levels, Stribeck velocity, mass, damping; encoder and current "
