@@ -178,7 +178,8 @@ class Effects:
         normalised temperature follows ``tau dtheta/dt = |v_motor| / v_heat - theta`` from 0
         at the start of a run, the drift is ``thermal_drift * theta`` and relaxes at rest.
     quantization : float
-        Encoder step, m (0: ideal).
+        Encoder step, m (rad on a rotary axis; 0: ideal), at most 0.1 (a hobby rig's
+        potentiometer on a 10-bit ADC reads 0.061 rad a count).
     noise_std : float
         Standard deviation of additive measurement noise, m.
     delay_samples : int
@@ -247,7 +248,7 @@ class Effects:
         check_range("thermal_drift", self.thermal_drift, -1e-3, 1e-3, "m")
         check_positive("thermal_time_constant", self.thermal_time_constant, "s")
         check_nonneg("thermal_heating_speed", self.thermal_heating_speed, "m/s")
-        check_range("quantization", self.quantization, 0.0, 1e-4, "m")
+        check_range("quantization", self.quantization, 0.0, 0.1, "m")
         check_range("noise_std", self.noise_std, 0.0, 1e-4, "m")
         check_int("delay_samples", self.delay_samples, 0, K.DELAY_MAX)
         check_range("current_noise_std", self.current_noise_std, 0.0, 100.0, "A")
