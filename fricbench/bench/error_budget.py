@@ -26,16 +26,23 @@ from fricbench.gym.task import TrajectoryChoice
 
 __all__ = ["ErrorBudget", "error_budget", "frictionless", "header_lines"]
 
-def frictionless(axis: Axis) -> Axis:
+def frictionless(axis: Axis, damping: bool = False) -> Axis:
     """``axis`` with every friction force off: the mass in its loop alone.
 
-    Off: the friction law (Coulomb, Stribeck, viscous, LuGre, ...), the viscous damping ``B``,
-    the constant load, and the effects that are friction or a force like it (asymmetries,
-    friction varying along the stroke, cogging). Kept: the controller, the mass, the sensor,
-    delays, backlash and compliance.
+    Off: the friction law (Coulomb, Stribeck, viscous, LuGre, ...), the constant load, the
+    effects that are friction or a force like it (asymmetries, friction varying along the
+    stroke, cogging) and, unless ``damping``, the viscous damping ``B``. Kept: the controller,
+    the mass, the sensor, delays, backlash and compliance.
+
+    Raises
+    ------
+    ValueError
+        When the loop is unstable without the damping (an identified law may lean on it: a
+        voltage-driven motor's back-EMF is damping too); ``damping=True`` keeps it.
     """
+    mech = axis.mechanics if damping else replace(axis.mechanics, damping=0.0)
     return replace(axis, friction=make_friction("viscous", fv=0.0),
-                   mechanics=replace(axis.mechanics, damping=0.0, load=0.0),
+                   mechanics=replace(mech, load=0.0),
                    effects=replace(axis.effects, cogging_amplitude=0.0, friction_gradient=0.0,
                                    coulomb_asymmetry=0.0, viscous_asymmetry=0.0,
                                    friction_variation=0.0))
@@ -51,6 +58,7 @@ class ErrorBudget:
     max_frictionless: float
     rms_error: float
     rms_frictionless: float
+    damping_kept: bool = False
 
     @property
     def friction_share(self) -> float:
@@ -80,13 +88,17 @@ def _uncompensated(axis: Axis, env_id: str, trajectory: str) -> tuple[float, flo
 def error_budget(env_id: str, trajectories: Sequence[str]) -> list[ErrorBudget]:
     """The uncompensated error of each trajectory on ``env_id``'s nominal, noise-free axis,
     with its friction and with :func:`frictionless`'s axis (seed 0, the env's own trajectory
-    parameters, as the benchmark runs them)."""
+    parameters, as the benchmark runs them; the damping kept where the loop needs it)."""
     axis = get_spec(env_id).axis
+    try:
+        bare, kept = frictionless(axis), False
+    except ValueError:  # unstable without its damping
+        bare, kept = frictionless(axis, damping=True), True
     out = []
     for t in trajectories:
         mx, rms = _uncompensated(axis, env_id, t)
-        mx0, rms0 = _uncompensated(frictionless(axis), env_id, t)
-        out.append(ErrorBudget(t, mx, mx0, rms, rms0))
+        mx0, rms0 = _uncompensated(bare, env_id, t)
+        out.append(ErrorBudget(t, mx, mx0, rms, rms0, kept))
     return out
 
 
@@ -105,10 +117,14 @@ def header_lines(env_id: str, trajectories: Sequence[str],
         f"{b.trajectory} {1e6 * b.max_error:.2f} um with friction, "
         f"{1e6 * b.max_frictionless:.2f} um without (friction adds "
         f"{100 * b.friction_share:.1f} %)" for b in budget)
+    off = ("friction law, load, asymmetries, position-dependent friction and cogging; the "
+           "viscous damping kept, without which this loop is unstable: the linear axis in its "
+           "loop" if budget and budget[0].damping_kept else
+           "friction law, viscous damping, load, asymmetries, position-dependent friction and "
+           "cogging: the mass in its loop alone")
     lines = [f"- What there is to remove: `none` on the env's nominal axis (noise free), max "
-             f"abs(e) with its friction and with friction off (friction law, viscous damping, "
-             f"load, asymmetries, position-dependent friction and cogging: the mass in its loop "
-             f"alone, whose error is the loop's own lag): {cells}\n"]
+             f"abs(e) with its friction and with friction off ({off}, whose error is the "
+             f"loop's own lag): {cells}\n"]
     for c in compensators:
         try:
             note = make_compensator(c).env_note(env_id)

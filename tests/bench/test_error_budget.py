@@ -39,3 +39,15 @@ def test_header_lines() -> None:
     assert any("`kalman` alone" in line for line in lines[1:])
     assert len(header_lines("fricbench/PaperAxis-v0", ["m_serial"], ["rl-residual"])) == 1
     assert header_lines("fricbench/NoSuchEnv-v0", ["m_serial"], ["none"]) == []
+
+
+def test_a_loop_unstable_without_its_damping_keeps_it() -> None:
+    """The DC motor's identified PID law is unstable on the bare mass: the budget keeps the
+    damping and the header says so."""
+    axis = get_spec("fricbench/DCMotor-v0").axis
+    with pytest.raises(ValueError, match="unstable"):
+        frictionless(axis)
+    (b,) = error_budget("fricbench/DCMotor-v0", ["reversal_sine"])
+    assert b.damping_kept and b.max_frictionless > 0.0
+    lines = header_lines("fricbench/DCMotor-v0", ["reversal_sine"], ["rl-residual"])
+    assert "damping kept" in lines[0] and "`kalman` alone" in lines[1]
