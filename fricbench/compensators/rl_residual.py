@@ -32,7 +32,7 @@ records the distribution under ``training.residual``.
 
 A policy acts only within what it was trained on: the training env's loop (its controller, the
 integration substeps aside) and its mass and damping within the plants' spread (the JSON's
-``training.residual.sigma``, truncated at :data:`fricbench.bench.plants.TRUNCATION` sigmas). On
+``training.residual.sigma``, truncated at :data:`fricbench.axis.variation.TRUNCATION` sigmas). On
 another axis (:func:`residual_scope` says why: the EMPS twin's P loop without feedforward and
 95 kg, against the paper axis's cascade and 400 kg) the compensator runs its base alone
 (``residual_off_`` holds the reason, :meth:`ResidualRLCompensator.env_note` gives it to the
@@ -117,7 +117,7 @@ def residual_scope(train_axis: Axis, axis: Axis, sigma: Mapping[str, Any]) -> st
     sigma : mapping
         Log-normal sigmas of the training plants (``mass``, ``damping``).
     """
-    from fricbench.bench.plants import TRUNCATION
+    from fricbench.axis.variation import TRUNCATION
 
     reasons = []
     if replace(axis.controller, n_substeps=train_axis.controller.n_substeps) \
