@@ -710,8 +710,10 @@ def format_report(result: ReproduceResult) -> str:
 
     def target_row(label: str, key: str, fmt: str) -> str:
         t = tg[key]
-        return (f"  {label}: median {format(t['median'], fmt)} [{format(t['min'], fmt)} - "
-                f"{format(t['max'], fmt)}], {t['met_by_seeds']} of {n} seeds: {ok(t['met'])}")
+        unit = "x" if fmt.endswith("f") else ""
+        return (f"  {label}: median {format(t['median'], fmt)}{unit} [{format(t['min'], fmt)} - "
+                f"{format(t['max'], fmt)}{unit}], {t['met_by_seeds']} of {n} seeds: "
+                f"{ok(t['met'])}")
 
     lines += [
         "",
