@@ -119,24 +119,26 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     The cascade controller around :mod:`fricbench.axis.plant`; the body shared by the serial
     and parallel drivers, inlined into each caller.
     """
-    advance_axis_with(PL.constants(P[n]), n, P, S, xr, vr, ar, u_force, u_off, noise, x_true,
+    p = P[n]
+    advance_axis_with(PL.constants(p), p, n, S, xr, vr, ar, u_force, u_off, noise, x_true,
                       x_meas, force, friction, status)
 
 
-def advance_axis_with(c: PL.Plant, n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray,
+def advance_axis_with(c: PL.Plant, p: np.ndarray, n: int, S: np.ndarray, xr: np.ndarray,
                       vr: np.ndarray, ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray,
                       noise: np.ndarray, x_true: np.ndarray, x_meas: np.ndarray,
                       force: np.ndarray, friction: np.ndarray, status: np.ndarray) -> None:
-    """:func:`advance_axis` with the plant constants ``c`` of row ``P[n]`` already unpacked
-    (:func:`fricbench.axis.plant.constants`, or a row of
-    :func:`fricbench.axis.plant.constants_table`).
+    """:func:`advance_axis` with axis ``n``'s parameter row ``p`` (``P[n]``, or a row equal
+    to it) and its plant constants ``c`` already unpacked (:func:`fricbench.axis.plant.constants`,
+    or a row of :func:`fricbench.axis.plant.constants_table`).
 
     The fused vector-env step advances each axis by one sample per call; unpacking its plant
     row (divisions, branches) at every call would cost a third of the sample, so it passes
-    constants unpacked once per parameter change.
+    constants unpacked once per parameter change. When every axis holds the same row it passes
+    that one row for all, so that what is computed from the row alone (the integrator's
+    ``Ts / Ti``, the reciprocal of ``Ts``) is computed once per step, not once per axis.
     """
     n_samples = xr.shape[1]
-    p = P[n]
     s = S[n]
     # parameters and state live in locals over the whole run: the inner loop touches no
     # arrays but the inputs and outputs

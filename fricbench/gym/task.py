@@ -314,12 +314,13 @@ def preview_offsets(cfg: ObservationConfig) -> np.ndarray:
 
 
 @numba.njit(cache=True, inline="always")
-def observe_row(r: int, S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray,
+def observe_row(r: int, S: np.ndarray, p: np.ndarray, X: np.ndarray, V: np.ndarray,
                 A: np.ndarray, i: int, kk: int, offsets: np.ndarray, prev_action: float,
                 inv: np.ndarray, out: np.ndarray) -> None:
-    """Fill ``out[r]`` with the scaled observation of axis ``r`` of ``S`` following reference
-    row ``i`` of the tables ``X, V, A`` at sample ``kk`` (the layout of :func:`fill_observation`;
-    ``inv`` holds the reciprocals of the scales, so the row costs no division).
+    """Fill ``out[r]`` with the scaled observation of axis ``r`` of ``S`` (parameter row ``p``,
+    ``P[r]`` or a row equal to it) following reference row ``i`` of the tables ``X, V, A`` at
+    sample ``kk`` (the layout of :func:`fill_observation`; ``inv`` holds the reciprocals of the
+    scales, so the row costs no division).
     """
     n_prev = offsets.shape[0]
     inv_e, inv_x, inv_v, inv_a, inv_f = inv[0], inv[1], inv[2], inv[3], inv[4]
@@ -329,9 +330,9 @@ def observe_row(r: int, S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarr
     out[r, 2] = V[i, kk] * inv_v
     out[r, 3] = A[i, kk] * inv_a
     # measured velocity (x_fb[k] - x_fb[k-1]) / Ts
-    out[r, 4] = (S[r, S_XFB] - S[r, S_XFB_PREV]) / P[r, P_TS] * inv_v
+    out[r, 4] = (S[r, S_XFB] - S[r, S_XFB_PREV]) / p[P_TS] * inv_v
     out[r, 5] = prev_action
-    out[r, 6] = P[r, P_KT] * S[r, S_IAPP] * inv_f
+    out[r, 6] = p[P_KT] * S[r, S_IAPP] * inv_f
     for j in range(n_prev):
         o = kk + offsets[j]
         out[r, 7 + j] = V[i, o] * inv_v
@@ -352,7 +353,7 @@ def fill_observation(S: np.ndarray, P: np.ndarray, X: np.ndarray, V: np.ndarray,
     """
     inv = 1.0 / scales
     for r in range(S.shape[0]):
-        observe_row(r, S, P, X, V, A, rows[r], k[r], offsets, prev_action[r], inv, out)
+        observe_row(r, S, P[r], X, V, A, rows[r], k[r], offsets, prev_action[r], inv, out)
 
 
 def obs_scales(cfg: ObservationConfig) -> np.ndarray:

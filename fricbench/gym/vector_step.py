@@ -37,8 +37,8 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
     P, S : ndarray
         Packed parameters and states of the ``N`` axes (kernel layout); ``S`` is updated.
     shared : bool
-        Every row of ``P`` holds the same plant row (friction not redrawn per sub-env): its
-        constants are unpacked once per call, not once per sub-env.
+        Every row of ``P`` is the same (friction not redrawn per sub-env): the constants of
+        the first are unpacked once per call and it stands for every sub-env's row.
     X, V, A : ndarray, shape (R, L)
         Padded reference tables; sub-env ``n`` follows row ``ref_id[n]`` at sample ``k[n]``.
     lengths : ndarray of int64, shape (R,)
@@ -88,8 +88,11 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
     inv_r = scales[0] / reward_error_scale
     first_bad = 0
     # unpacking a plant row (divisions, branches) costs a third of a sample: done once when
-    # the rows share one plant, else per row as the kernel's drivers do
-    c = PL.constants(P[0])
+    # the rows share one plant, else per row as the kernel's drivers do; the shared row also
+    # stands for every sub-env's in the gains and the observation, so what is computed from it
+    # alone (Ts / Ti, 1 / Ts) is computed once per step and no other row is read
+    p0 = P[0]
+    c = PL.constants(p0)
     for n in range(n_env):
         i = ref_id[n]
         if hold[n]:
@@ -108,7 +111,7 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
                 u_off[n, 0] = a * action_scale
             noise[n, 0] = draws[n]
             if shared:
-                advance_axis_with(c, n, P, S, xr, vr, ar, u_force, u_off, noise, x_true,
+                advance_axis_with(c, p0, n, S, xr, vr, ar, u_force, u_off, noise, x_true,
                                   x_meas, force, friction, status)
             else:
                 advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas,
@@ -119,7 +122,7 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         prev_action[n] = a
         kk = k[n]
         err = (X[i, kk] - S[n, S_XMEAS]) * inv[0]
-        observe_row(n, S, P, X, V, A, i, kk, offsets, a, inv, obs)
+        observe_row(n, S, p0 if shared else P[n], X, V, A, i, kk, offsets, a, inv, obs)
         if hold[n]:
             reward[n] = 0.0
             truncated[n] = False
