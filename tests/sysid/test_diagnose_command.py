@@ -63,6 +63,14 @@ def test_json_keys_and_atomic_report(run_csv, tmp_path, capsys):
     assert _sha(run_csv) == before  # the input is never modified
     printed = capsys.readouterr().out
     assert "effects found" in printed and "elapsed" in printed
+    # the values printed under "effects found" are the final model's, the JSON's and the
+    # twin's (each step's are those it was added with, before the later refits)
+    assert set(data["parameters"]) == set(data["effects"])
+    final = data["steps"][-1]["model"] if data["steps"] else None
+    for name, values in data["parameters"].items():
+        line = f"  {name}: " + ", ".join(f"{k}={v:.4g}" for k, v in values.items())
+        assert line in printed.splitlines(), (line, printed)
+    assert final is None or set(final["effects"]) == set(data["effects"])
 
 
 def test_validation_and_position_only(run_csv, tmp_path):
@@ -129,6 +137,17 @@ def test_rotary_log_without_time_column(rotary_log, tmp_path, capsys):
     assert "position_rms_rad" in data["linear_model"]
     assert "prediction_floor_rad" in data["noise_floor"]
     assert not any(k.endswith("_m") for k in data["noise_floor"])
+
+
+def test_progress_lines_give_the_log_unit(rotary_log, capsys):
+    code = main([rotary_log, "--sample-time", "0.001", "--position-unit", "deg",
+                 "--reference", "0", "--position", "1", "--effort", "Channel 3",
+                 "--max-effects", "0"])
+    err = capsys.readouterr().err
+    assert code == EXIT_OK, err
+    line = next(ln for ln in err.splitlines() if "linear position rms" in ln)
+    assert re.search(r"linear position rms [0-9.e+-]+ deg ", line), line
+    assert not re.search(r"rms [0-9.e+-]+ (rad|m)\b", err), err
 
 
 @pytest.mark.parametrize(("extra", "message"), [

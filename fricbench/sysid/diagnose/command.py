@@ -469,6 +469,10 @@ def _print_summary(report: dict, n_samples: int, elapsed: float,
     v = report["verdict_detail"]
     print(f"verdict: {v['verdict']}: {v['reason']}; residual: {v['residual']}")
     print(f"effects found: {', '.join(effects) if effects else 'none'}")
+    for name, values in report.get("parameters", {}).items():
+        print(f"  {name}: " + ", ".join(f"{k}={v:.4g}" for k, v in values.items()))
+    if report["steps"]:
+        print("search steps (each effect's values when it was added, before later refits):")
     for step in report["steps"]:
         params = ", ".join(f"{k}={v:.4g}" for k, v in step["parameters"].items())
         m = step["metrics"]

@@ -223,6 +223,10 @@ class DiagnosisResult:
         if eff is not None:
             out["effort"] = eff
         out["steps"] = steps
+        # the final model's values (each step's are those it was added with, before the
+        # later steps' refits): what the twin holds
+        final = self.search.final.model
+        out["parameters"] = {e: describe_parameters(e, final.plant, fu) for e in final.effects}
         if self.validation is not None and self.validation_run is not None:
             val: dict[str, object] = {"source": self.validation_run.source,
                                       "position": self.validation.position()}
@@ -470,8 +474,8 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
     if used and share is not None:
         notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
                      "controller law; it is fed to the simulations as an injected input")
-    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
-        f" ({time.perf_counter() - t0:.1f} s)")
+    log(f"  linear position rms {_rms(prep.x - y_lin) * run.logged_unit.per_si:.4g} "
+        f"{run.logged_unit.display} ({time.perf_counter() - t0:.1f} s)")
     search = forward_selection(linear, y_lin, prep, bounds, idim=idim, w=w, jac=None,
                                settings=settings, alt_loops=(), log=log)
     log(f"stop: {search.stop_reason}")
@@ -718,8 +722,8 @@ def _search_position(base: _LoopBase, run: RunData, settings: SearchSettings | N
     laws = {"train": "a cascade fitted to the training run's position"}
     prep, linear, y_lin, bounds, jac, alt = (base.prep, base.linear, base.y_lin, base.bounds,
                                              base.jac, base.alt)
-    log(f"  linear position rms {_rms(prep.x - y_lin):.3g} {run.units.get('position', 'm')}"
-        f" ({time.perf_counter() - t0:.1f} s)")
+    log(f"  linear position rms {_rms(prep.x - y_lin) * run.logged_unit.per_si:.4g} "
+        f"{run.logged_unit.display} ({time.perf_counter() - t0:.1f} s)")
     limit = base.limit
     if limit is not None:
         warnings.append(

@@ -213,11 +213,6 @@ def _rms(r: np.ndarray) -> float:
     return float(np.sqrt(sumsq(r) / r.shape[0])) if np.all(np.isfinite(r)) else float("inf")
 
 
-def _unit(prep: Prepared) -> str:
-    """The SI unit of the run's positions (m, or rad for a rotary axis)."""
-    return prep.run.units.get("position", "m")
-
-
 def _length(prep: Prepared, value: float) -> str:
     """A position figure (SI) in the unit the log was in (deg stays deg, mm stays mm)."""
     unit = prep.run.logged_unit
@@ -645,10 +640,10 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
         steps.append(step)
         if judged_on_position:
             log(f"  + {winner.effect} (judged on the position): position rms "
-                f"{step.position_rms:.3g} {_unit(prep)}")
+                f"{_length(prep, step.position_rms)}")
         else:
             log(f"  + {winner.effect}: effort relerr {step.effort_relerr_pct:.3f} %, position "
-                f"rms {step.position_rms:.3g} {_unit(prep)}")
+                f"rms {_length(prep, step.position_rms)}")
     return steps, reason, floor
 
 
@@ -681,8 +676,8 @@ def _position_prune(model: GreyBox, prep: Prepared, idim: InverseDynamics,
         if not rms > (1.0 + POSITION_TOLERANCE) * rms_without[k]:
             break
         out.append((model.effects[k], rms, rms_without[k]))
-        log(f"    {model.effects[k]} makes the free-run position worse: {rms:.4g} without it "
-            f"{rms_without[k]:.4g} {_unit(prep)} rms")
+        log(f"    {model.effects[k]} makes the free-run position worse: "
+            f"{_length(prep, rms)} rms with it, {_length(prep, rms_without[k])} without it")
         model, rms = trials[k], rms_without[k]
     return out
 
@@ -1155,8 +1150,8 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         floor = max(min(prediction_floor(m, prep), floor_linear),
                     FLOOR_NOISE_FACTOR * prep.noise.rms)
         if cur.position_rms <= floor:
-            reason = (f"the position residual ({cur.position_rms:.3g} {_unit(prep)} rms) is at "
-                      f"the noise floor of a free-run prediction ({floor:.3g} {_unit(prep)}): "
+            reason = (f"the position residual ({_length(prep, cur.position_rms)} rms) is at "
+                      f"the noise floor of a free-run prediction ({_length(prep, floor)}): "
                       "nothing left to explain")
             break
         # ---- linearised screen (under each loop estimate, before the first effect)
@@ -1325,8 +1320,8 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                               float(np.max(np.abs(prep.x - full.y))), None, scores,
                               sc_j.heldout_ratio))
             runners_up = {}
-            log(f"  + {req} with {sc_j.effect}: position rms {steps[-1].position_rms:.3g} "
-                f"{_unit(prep)}")
+            log(f"  + {req} with {sc_j.effect}: position rms "
+                f"{_length(prep, steps[-1].position_rms)}")
             continue
         winner, full = accepted
         runners_up = {sc.effect: confirmed[sc.effect] for sc in scores
@@ -1335,7 +1330,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         step = Step(winner.effect, full.model, full.y, _rms(prep.x - full.y),
                     float(np.max(np.abs(prep.x - full.y))), None, scores, winner.heldout_ratio)
         steps.append(step)
-        log(f"  + {winner.effect}: position rms {step.position_rms:.3g} {_unit(prep)}")
+        log(f"  + {winner.effect}: position rms {_length(prep, step.position_rms)}")
     return steps, reason, floor
 
 
