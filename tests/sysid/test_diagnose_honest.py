@@ -93,6 +93,20 @@ def test_an_unclipped_effort_has_no_saturation(step: float) -> None:
     assert detect_saturation(u) is None
 
 
+def test_repeated_equal_peaks_of_a_rounded_log_are_not_a_clip() -> None:
+    """Equal peaks, each touched once (a repeated move's crest written with few digits), pile
+    samples onto one level as a clip does, but a clip holds its level: a plateau."""
+    rng = np.random.default_rng(4)
+    u = np.round(rng.uniform(-9.0, 9.0, 4000), 1)  # a log with one decimal: levels repeat
+    u[::50] = 10.0  # 80 equal crests, never two in a row
+    assert detect_saturation(u) is None
+    # held at that level for a few samples at each of a few crests: a clip
+    for start in (500, 1500, 2500, 3500):
+        u[start:start + 6] = 10.0
+    sat = detect_saturation(u)
+    assert sat is not None and sat.high == pytest.approx(10.0)
+
+
 def test_the_filter_follows_a_coarse_sensor_and_keeps_the_recipe_on_a_fine_one() -> None:
     ts = 2e-3
     t = np.arange(10000) * ts

@@ -333,7 +333,11 @@ def _clip_side(u: np.ndarray, top: float, tol: float, sign: float) -> np.ndarray
     """Mask of samples at ``top`` when the effort piles up there (a clip), else None.
 
     A clipped signal piles samples onto one level; the peak of an unclipped (even coarsely
-    quantised) signal visits its top level about as often as the level below it.
+    quantised) signal visits its top level about as often as the level below it. Where the
+    values near the top repeat anyway (a rounded or coarse log: the level below the top is
+    visited more than once), equal peaks are what rounding makes of a repeated move's crest,
+    each touched once: there a clip must also hold its level, a plateau of two samples in a
+    row at least. Where they do not repeat, three samples on one value are a clip.
     """
     at = sign * (u - top) >= -tol
     n_top = int(np.count_nonzero(at))
@@ -344,6 +348,8 @@ def _clip_side(u: np.ndarray, top: float, tol: float, sign: float) -> np.ndarray
         return None
     nxt = below[np.argmax(sign * below)]
     n_next = int(np.count_nonzero(np.abs(u - nxt) <= tol))
+    if n_next > 1 and not np.any(at[1:] & at[:-1]):
+        return None
     return at if n_top > 2 * n_next else None
 
 
