@@ -464,13 +464,6 @@ def free_run_floor(fold_fits: dict[int, np.ndarray], effort: np.ndarray, y: np.n
     return float(np.sqrt(sq / count)) if count else 0.0
 
 
-class _Effects:
-    """The open loop's candidates: registry effects, as the search's objects."""
-
-    def __init__(self, names: Sequence[str]) -> None:
-        self.items = [get_effect(n) for n in names]
-
-
 def _sizes(name: str, idx: Sequence[int]) -> list[int]:
     """Entries of ``idx`` that are sizes of effect ``name`` (not its shape)."""
     eff = get_effect(name)
@@ -578,7 +571,7 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
 
     base = _heldout(BASE_EFFECTS, effort, y, ts, blocks, n_init, {}, settings)
     say(f"open loop: base {', '.join(BASE_EFFECTS)}: held-out rms {1e3 * base.rms:.4g} mm")
-    chosen = select(base, _Effects([c for c in candidates if c not in BASE_EFFECTS]).items,
+    chosen = select(base, [get_effect(c) for c in candidates if c not in BASE_EFFECTS],
                     score, settings, say, describe=lambda v: f"{1e3 * v:.4g} mm")
     effects = chosen.best.structure
     starts = list(chosen.best.state.values())
