@@ -67,8 +67,13 @@ def test_json_keys_and_atomic_report(run_csv, tmp_path, capsys):
     # twin's (each step's are those it was added with, before the later refits)
     assert set(data["parameters"]) == set(data["effects"])
     final = data["steps"][-1]["model"] if data["steps"] else None
+    # each with its standard deviation from the final model's Jacobian (parameter_sd)
+    assert set(data["parameter_sd"]) == set(data["effects"])
     for name, values in data["parameters"].items():
-        line = f"  {name}: " + ", ".join(f"{k}={v:.4g}" for k, v in values.items())
+        sd = data["parameter_sd"][name]
+        assert set(sd) == set(values)
+        assert all(math.isfinite(v) and v >= 0.0 for v in sd.values())
+        line = f"  {name}: " + ", ".join(f"{k}={v:.4g} +- {sd[k]:.2g}" for k, v in values.items())
         assert line in printed.splitlines(), (line, printed)
     assert final is None or set(final["effects"]) == set(data["effects"])
 

@@ -469,8 +469,12 @@ def _print_summary(report: dict, n_samples: int, elapsed: float,
     v = report["verdict_detail"]
     print(f"verdict: {v['verdict']}: {v['reason']}; residual: {v['residual']}")
     print(f"effects found: {', '.join(effects) if effects else 'none'}")
+    sds = report.get("parameter_sd", {})
     for name, values in report.get("parameters", {}).items():
-        print(f"  {name}: " + ", ".join(f"{k}={v:.4g}" for k, v in values.items()))
+        sd = sds.get(name, {})
+        # each value with its standard deviation (the JSON's parameter_sd) where there is one
+        print(f"  {name}: " + ", ".join(
+            f"{k}={v:.4g}" + (f" +- {sd[k]:.2g}" if k in sd else "") for k, v in values.items()))
     if report["steps"]:
         print("search steps (each effect's values when it was added, before later refits):")
     for step in report["steps"]:

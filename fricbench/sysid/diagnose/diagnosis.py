@@ -40,6 +40,8 @@ from fricbench.sysid.diagnose.models import (
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare, substeps
 from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
+from fricbench.sysid.diagnose.uncertainty import ModelUncertainty, model_uncertainty
 from fricbench.sysid.diagnose.verdict import FLOOR_FACTOR, Verdict, judge
 from fricbench.sysid.io import RunData
 
@@ -153,6 +155,7 @@ class DiagnosisResult:
     diagnosis_warnings: list[str] = field(default_factory=list)
     mode_comparison: dict[str, object] | None = None
     validation_coverage: Coverage | None = None
+    uncertainty: ModelUncertainty | None = None
 
     @property
     def warnings(self) -> list[str]:
@@ -227,6 +230,13 @@ class DiagnosisResult:
         # later steps' refits): what the twin holds
         final = self.search.final.model
         out["parameters"] = {e: describe_parameters(e, final.plant, fu) for e in final.effects}
+        if self.uncertainty is not None and self.uncertainty.sd:
+            unc = self.uncertainty.to_dict()
+            out["parameter_sd"] = unc.pop("parameter_sd")
+            out["uncertainty"] = dict(unc, detection_sd=DEFAULT_SETTINGS.detection_sd,
+                                      note="standard deviations from the Jacobian of the "
+                                           "free-run error at the final model, every free "
+                                           "parameter (loop, damping, effects) in it")
         if self.validation is not None and self.validation_run is not None:
             val: dict[str, object] = {"source": self.validation_run.source,
                                       "position": self.validation.position()}
@@ -430,6 +440,7 @@ class _ModeFit:
     warnings: list[str] = field(default_factory=list)
     laws: dict[str, str] = field(default_factory=dict)
     comparison: dict[str, object] | None = None
+    bounds: Bounds | None = None
 
     @property
     def finite(self) -> bool:
@@ -480,7 +491,8 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
                                settings=settings, alt_loops=(), log=log)
     log(f"stop: {search.stop_reason}")
     train = _evaluate(linear, search.final.model, prep)
-    return _ModeFit("effort", force_unit, prep, linear, search, train, notes, [], laws)
+    return _ModeFit("effort", force_unit, prep, linear, search, train, notes, [], laws,
+                    bounds=bounds)
 
 
 EFFORT_MAX_STEP = 1e-4
@@ -768,7 +780,8 @@ def _search_position(base: _LoopBase, run: RunData, settings: SearchSettings | N
                           f"{'s' if delay > 1 else ''} ({1e3 * delay * prep.inputs.loop_ts:.3g}"
                           " ms), found with the friction")
     train = _evaluate(linear, final, prep)
-    return _ModeFit("position", "m_s2", prep, linear, search, train, notes, warnings, laws)
+    return _ModeFit("position", "m_s2", prep, linear, search, train, notes, warnings, laws,
+                    bounds=bounds)
 
 
 def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: float,
@@ -996,9 +1009,19 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         raise DiagnosisError("the fitted loop diverges in a free run of the training run: no "
                              "valid model of this run")
     warnings += search.warnings
+    uncertainty = None
+    if fit.bounds is not None and fit.finite:
+        uncertainty = model_uncertainty(final, prep, fit.bounds,
+                                        _injected(final.controller, prep)[0], force_unit=fu)
+        for name in uncertainty.within(DEFAULT_SETTINGS.detection_sd):
+            warnings.append(
+                f"{name}: the held-out error named it, but its fitted size lies within "
+                f"{DEFAULT_SETTINGS.detection_sd:g} standard deviations of zero "
+                f"(|size|/sd {uncertainty.size_over_sd[name]:.3g}): weakly determined")
+            log(f"warning: {warnings[-1]}")
     return DiagnosisResult(run=run, prep=prep, mode=mode, force_unit=fu, linear=linear,
                            search=search, train=train, validation=val_eval,
                            validation_run=validate, linear_tf=tf,
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
                            diagnosis_warnings=warnings, mode_comparison=fit.comparison,
-                           validation_coverage=val_coverage)
+                           validation_coverage=val_coverage, uncertainty=uncertainty)

@@ -1,0 +1,147 @@
+"""Standard deviations of the closed-loop model's parameters, and which effects they detect.
+
+The open loop's final fit carries its Jacobian (:mod:`fricbench.sysid.diagnose.open_loop`);
+the closed loop's final model is the search's last refit, so its Jacobian is taken here, once,
+at that model: one batch of free runs, every free parameter of the model moved by a finite
+step (the loop gains of a cascade fitted to the position, the damping, every effect's
+parameters). The covariance is the output-error one of the diagnosis' criterion module,
+``tau s^2 (J^T J)^-1`` (:func:`~fricbench.sysid.diagnose.criterion.parameter_covariance`),
+carried to the reported values by the delta method. With every free parameter in the
+Jacobian, each standard deviation is the marginal one: a size the loop gains could take up
+is reported as uncertain, not as fitted.
+
+An effect whose every size (its parameters that are not a shape: a gap, a level, an
+amplitude; not a period or a time constant) lies within
+:attr:`~fricbench.sysid.diagnose.settings.DiagnoseSettings.detection_sd` standard deviations
+of zero is reported as within its uncertainty.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fricbench.sysid.diagnose.criterion import (
+    described_sd,
+    effective_samples,
+    parameter_covariance,
+)
+from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
+from fricbench.sysid.diagnose.models import (
+    Bounds,
+    GreyBox,
+    PositionFit,
+    _lm_box,
+    _models_at,
+    position_params,
+)
+from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings
+
+__all__ = ["ModelUncertainty", "model_uncertainty"]
+
+
+@dataclass
+class ModelUncertainty:
+    """Uncertainty of a closed-loop model's parameters.
+
+    Attributes
+    ----------
+    sd : dict
+        Per effect, the standard deviation of each value :func:`describe_parameters` reports
+        (same keys, same SI units).
+    size_over_sd : dict
+        Per effect, the largest ``|size| / sd`` over its sizes (inf when the data pin a size
+        exactly, never NaN); absent for an effect with no size parameter.
+    n_eff : float
+        Independent samples the residual is worth (the covariance's ``n / tau``).
+    n_params : int
+        Free parameters in the Jacobian.
+    """
+
+    sd: dict[str, dict[str, float]] = field(default_factory=dict)
+    size_over_sd: dict[str, float] = field(default_factory=dict)
+    n_eff: float = 0.0
+    n_params: int = 0
+
+    def within(self, detection_sd: float) -> list[str]:
+        """Effects whose every size lies within ``detection_sd`` standard deviations of 0."""
+        return [e for e, z in self.size_over_sd.items() if z <= detection_sd]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready form (finite numbers only: an infinite ratio is left out)."""
+        return {"parameter_sd": self.sd,
+                "size_over_sd": {e: z for e, z in self.size_over_sd.items()
+                                 if math.isfinite(z)},
+                "n_eff": self.n_eff, "n_params": self.n_params}
+
+
+def _sizes(name: str) -> list[int]:
+    eff = get_effect(name)
+    return [i for i in eff.parameters if i not in eff.shape_parameters]
+
+
+def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None = None,
+                      *, force_unit: str = "N",
+                      settings: DiagnoseSettings = DEFAULT_SETTINGS) -> ModelUncertainty:
+    """Standard deviations of ``model``'s reported values from the Jacobian at ``model``.
+
+    Parameters
+    ----------
+    model : GreyBox
+        The final model (its values are taken as the optimum).
+    prep : Prepared
+    b : Bounds
+    w : ndarray, optional
+        Injected effort of the run.
+    force_unit : str
+        Unit of the force parameters, as reported.
+    settings : DiagnoseSettings
+
+    Returns
+    -------
+    ModelUncertainty
+        Empty (no effect) when the model has no effect or its free run is not finite.
+    """
+    if not model.effects:
+        return ModelUncertainty()
+    params = position_params(model, b, controller=True, effects=list(model.effects))
+    fit = PositionFit(prep, params, None, w)
+    theta0, lo, hi, steps = _lm_box(params, model)
+    # a step that would leave the box goes the other way (as the fit's own Jacobian does)
+    h = np.where(theta0 + steps <= hi, steps, -steps)
+    thetas = np.vstack([theta0[None, :], theta0[None, :] + np.diag(h)])
+    ys, loads = fit._simulate(_models_at(model, params, thetas))
+    res = [fit._resid(y, None if loads is None else loads[i]) for i, y in enumerate(ys)]
+    r0 = res[0]
+    if not np.all(np.isfinite(ys[0])):
+        return ModelUncertainty()
+    jac = np.column_stack([(res[j + 1] - r0) / h[j] for j in range(len(params))])
+    n_eff = effective_samples(r0, settings.max_lag_share)
+    cov_theta = parameter_covariance(jac, r0, n_eff)
+    # theta -> physical value: d value / d theta is the value (a logarithm) or the scale
+    slope = np.array([p.from_theta(t) if p.log else p.scale
+                      for p, t in zip(params, theta0, strict=True)])
+    cov = cov_theta * np.outer(slope, slope)
+    plant_cols = [j for j, p in enumerate(params) if isinstance(p.target, int)]
+    idx = [int(params[j].target) for j in plant_cols]
+    cov_plant = cov[np.ix_(plant_cols, plant_cols)]
+    row = model.plant
+    fd = np.array([1e-6 * max(abs(float(row[i])), 1e-9) for i in idx])
+    out = ModelUncertainty(n_eff=n_eff, n_params=len(params))
+    for name in model.effects:
+        out.sd[name] = described_sd(functools.partial(describe_parameters, name,
+                                                      force_unit=force_unit),
+                                    row, idx, cov_plant, fd)
+        zs = []
+        for i in _sizes(name):
+            if i not in idx:
+                continue
+            sd = math.sqrt(max(float(cov_plant[idx.index(i), idx.index(i)]), 0.0))
+            zs.append(abs(float(row[i])) / sd if sd > 0.0 else math.inf)
+        if zs:
+            out.size_over_sd[name] = max(zs)
+    return out

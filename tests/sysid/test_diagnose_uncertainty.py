@@ -1,0 +1,89 @@
+"""The closed-loop model's parameter uncertainty (:mod:`fricbench.sysid.diagnose.uncertainty`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fricbench.axis import Axis, simulate
+from fricbench.sysid.diagnose import closed_loop as CL
+from fricbench.sysid.diagnose.controllers import CascadeController
+from fricbench.sysid.diagnose.models import Bounds, GreyBox
+from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.diagnose.uncertainty import model_uncertainty
+from fricbench.sysid.io import validate_arrays
+from fricbench.trajectories.base import Reference
+
+
+def _run(noise: float, seed: int = 0):
+    """A 6 s run of fricbench's axis (Coulomb friction and a cogging ripple) and the exact
+    grey box of it (mass normalised to 1)."""
+    ts = 1e-3
+    t = np.arange(6000) * ts
+    x = 0.008 * np.sin(2 * np.pi * 0.4 * t) + 0.002 * np.sin(2 * np.pi * 1.7 * t + 0.3)
+    s = np.clip((t - 0.2) / 0.5, 0.0, 1.0)
+    x *= s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+    axis = Axis().with_effects(cogging_amplitude=80.0, cogging_period=4e-3, noise_std=noise)
+    res = simulate(axis, Reference.from_positions(t, x), seed=seed)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x), n_sub=axis.controller.n_substeps)
+    c, m, e, f = axis.controller, axis.mechanics, axis.effects, axis.friction
+    ctrl = CascadeController(wv=c.kv * c.kt / m.mass, kp=c.kp, ki=1.0 / c.ti, kvff=c.kvff,
+                             kaff=c.kaff)
+    p = CL.default_plant(1.0, m.damping / m.mass)
+    p[CL.I_FC] = f.fc / m.mass
+    p[CL.I_FS] = (f.fs - f.fc) / m.mass
+    p[CL.I_VS] = f.vs
+    p[CL.I_COGA] = e.cogging_amplitude * math.cos(e.cogging_phase) / m.mass
+    p[CL.I_COGB] = e.cogging_amplitude * math.sin(e.cogging_phase) / m.mass
+    p[CL.I_COGP] = e.cogging_period
+    model = GreyBox(ctrl, p, ("coulomb_friction", "stribeck_friction", "cogging"))
+    b = Bounds(force=5.0 * float(p[CL.I_FC]) + 10.0, stroke=prep.stroke, v_max=prep.v_max,
+               duration=prep.duration, ts=ts, noise=prep.noise.rms)
+    return prep, model, b
+
+
+def test_a_present_effect_is_many_sd_from_zero_and_an_absent_one_is_not():
+    """At the true model the cogging and the friction levels stand many standard deviations
+    from zero; a backlash of 1 nm added beside them (1/50 of the noise) lies within 2 sd of
+    zero. Every figure is finite."""
+    prep, model, b = _run(5e-8)
+    unc = model_uncertainty(model, prep, b, force_unit="m_s2")
+    assert unc.size_over_sd["cogging"] > 10.0
+    assert unc.size_over_sd["coulomb_friction"] > 10.0
+    assert unc.within(2.0) == []
+    assert 1.0 <= unc.n_eff <= prep.n
+    for values in unc.sd.values():
+        assert all(math.isfinite(v) and v >= 0.0 for v in values.values())
+    spurious = model.copy(effects=model.effects + ("backlash",))
+    spurious.plant[CL.I_BL] = 1e-9
+    unc2 = model_uncertainty(spurious, prep, b, force_unit="m_s2")
+    assert unc2.size_over_sd["backlash"] < 2.0
+    assert "backlash" in unc2.within(2.0)
+    assert unc2.size_over_sd["cogging"] > 10.0
+
+
+def test_standard_deviations_grow_with_the_noise():
+    """Four times the sensor noise (same seed): the cogging amplitude's standard deviation
+    grows by about four (between 2 and 8: the residual's correlation changes a little)."""
+    prep1, model, b1 = _run(5e-8)
+    prep4, _, b4 = _run(2e-7)
+    sd1 = model_uncertainty(model, prep1, b1, force_unit="m_s2").sd["cogging"]
+    sd4 = model_uncertainty(model, prep4, b4, force_unit="m_s2").sd["cogging"]
+    key = next(k for k in sd1 if k.startswith("amplitude"))
+    assert 2.0 < sd4[key] / sd1[key] < 8.0
+
+
+def test_a_model_without_effects_has_no_uncertainty_to_report():
+    prep, model, b = _run(5e-8)
+    unc = model_uncertainty(model.copy(effects=()), prep, b)
+    assert unc.sd == {} and unc.to_dict()["size_over_sd"] == {}
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_model_whose_free_run_diverges_reports_nothing(bad: float):
+    prep, model, b = _run(5e-8)
+    broken = model.copy()
+    broken.plant[CL.I_M] = bad
+    assert model_uncertainty(broken, prep, b).sd == {}
