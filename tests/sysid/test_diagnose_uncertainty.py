@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import math
+import os
+import sys
 
 import numpy as np
 import pytest
 
 from fricbench.axis import Axis, simulate
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.controllers import CascadeController
-from fricbench.sysid.diagnose.models import Bounds, GreyBox
+from fricbench.sysid.diagnose.models import Bounds
 from fricbench.sysid.diagnose.prepared import prepare
 from fricbench.sysid.diagnose.uncertainty import model_uncertainty
 from fricbench.sysid.io import validate_arrays
 from fricbench.trajectories.base import Reference
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from test_diagnose_models import _grey_box_of  # noqa: E402
 
 
 def _run(noise: float, seed: int = 0):
@@ -28,17 +33,9 @@ def _run(noise: float, seed: int = 0):
     axis = Axis().with_effects(cogging_amplitude=80.0, cogging_period=4e-3, noise_std=noise)
     res = simulate(axis, Reference.from_positions(t, x), seed=seed)
     prep = prepare(validate_arrays(res.t, res.x_ref, res.x), n_sub=axis.controller.n_substeps)
-    c, m, e, f = axis.controller, axis.mechanics, axis.effects, axis.friction
-    ctrl = CascadeController(wv=c.kv * c.kt / m.mass, kp=c.kp, ki=1.0 / c.ti, kvff=c.kvff,
-                             kaff=c.kaff)
-    p = CL.default_plant(1.0, m.damping / m.mass)
-    p[CL.I_FC] = f.fc / m.mass
-    p[CL.I_FS] = (f.fs - f.fc) / m.mass
-    p[CL.I_VS] = f.vs
-    p[CL.I_COGA] = e.cogging_amplitude * math.cos(e.cogging_phase) / m.mass
-    p[CL.I_COGB] = e.cogging_amplitude * math.sin(e.cogging_phase) / m.mass
-    p[CL.I_COGP] = e.cogging_period
-    model = GreyBox(ctrl, p, ("coulomb_friction", "stribeck_friction", "cogging"))
+    model = _grey_box_of(axis)
+    model = model.copy(effects=("coulomb_friction", "stribeck_friction", "cogging"))
+    p = model.plant
     b = Bounds(force=5.0 * float(p[CL.I_FC]) + 10.0, stroke=prep.stroke, v_max=prep.v_max,
                duration=prep.duration, ts=ts, noise=prep.noise.rms)
     return prep, model, b
