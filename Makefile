@@ -16,10 +16,14 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
-# 10 seeds, each its own drawn plant and fits; the settings file trims tf-lstm-precomp's
-# per-seed training (see its comments)
+# Every benchmark env and compensator on 6 seeds (each its own drawn plant and fits; 6 is the
+# fewest whose 95 % median interval can mean 95 %, fricbench/bench/statistics.py), in about
+# 15 min on 2 idle cores; the settings file trims tf-lstm-precomp's per-seed training (see its
+# comments). --fresh: the tables hold this run's rows alone. The last line is the wall time.
+# More seeds: make bench BENCH_SEEDS="0 1 2 3 4 5 6 7 8 9"
+BENCH_SEEDS ?= 0 1 2 3 4 5
 bench: $(STAMP)
-	$(BIN)/fricbench bench --compensator-config leaderboards/bench.toml
+	$(BIN)/fricbench bench --compensator-config leaderboards/bench.toml --seeds $(BENCH_SEEDS) --fresh
 
 test: $(STAMP)
 	$(BIN)/ruff check fricbench tests examples

@@ -295,6 +295,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from fricbench.compensators import compensator_registry
     from fricbench.gym import env_ids, get_spec
 
+    t0 = getattr(args, "started", None) or time.perf_counter()
     if args.jobs != -1 and args.jobs < 1:
         print(f"fricbench bench: error: --jobs {args.jobs}: expected a positive number of "
               "processes, or -1 for one per core", file=sys.stderr)
@@ -310,14 +311,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         print(f"fricbench bench: error: {_bench_option(exc, args, from_cli, from_file)} "
               f"{exc.value}: {exc.problem}", file=sys.stderr)
         return 2
-    t0 = time.perf_counter()
     records = []
+    work: dict[str, float] = {}
     interrupted = False
     broken: Exception | None = None
     try:
         for rec in run_benchmark(envs, comps, args.seeds, args.trajectories,
                                  backend=args.backend, n_jobs=args.jobs, address=args.address,
-                                 comp_kwargs=comp_kwargs, nominal=args.nominal):
+                                 comp_kwargs=comp_kwargs, nominal=args.nominal,
+                                 work=work):
             records.append(rec)
     except KeyboardInterrupt:
         interrupted = True
@@ -328,14 +330,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     descriptions = {e: (get_spec(e).description, get_spec(e).fit_on) for e in envs}
     if args.out is None:
         args.out = "leaderboards/nominal" if args.nominal else "leaderboards"
-    paths = write_leaderboards(records, args.out, command, _git_commit(), descriptions)
+    # an interrupted or broken run merges: its missing cells keep their earlier rows
+    fresh = args.fresh and not interrupted and broken is None
+    paths = write_leaderboards(records, args.out, command, _git_commit(), descriptions, fresh)
     failed = [r for r in records if r.status != "ok"]
     for p in paths:
         if p.suffix == ".md":
             print(p.read_text(encoding="utf-8").split("## Error traces")[0])
     _print_act_times(records, args.out)
-    print(f"{len(records)} runs ({len(failed)} failed) in {time.perf_counter() - t0:.0f} s; "
-          f"wrote {len(paths)} files under {args.out}/")
+    print(_wall_time_line(len(records), len(failed), time.perf_counter() - t0, args.jobs
+                          if args.backend == "joblib" else None, work, len(paths), args.out))
     if interrupted or broken is not None:
         done = {(r.env, r.compensator, r.trajectory, r.seed) for r in records}
         missing = [t for t in tasks if (t.env, t.compensator, t.trajectory, t.seed) not in done]
@@ -352,6 +356,20 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         _print_cells([(r.env, r.compensator, r.trajectory, r.seed, r.reason) for r in failed])
         return 1
     return 0
+
+
+def _wall_time_line(n_runs: int, n_failed: int, wall: float, jobs: int | None,
+                    work: dict[str, float], n_files: int, out: str) -> str:
+    """The bench's last line: its wall time from the command's start, then the CPU seconds of
+    its fits and runs per env (fits under their training env, summed over the processes: where
+    the time went, apart from what else the machine runs)."""
+    on = f" on {jobs} job{'' if jobs == 1 else 's'}" if jobs is not None else ""
+    per_env = ", ".join(f"{e.split('/', 1)[-1]} {s:.0f}" for e, s in
+                        sorted(work.items(), key=lambda kv: -kv[1]))
+    spent = (f" (fits and runs, CPU s: {sum(work.values()):.0f}; per env: {per_env})"
+             if per_env else "")
+    return (f"bench wall time: {wall:.0f} s{on}, {n_runs} runs ({n_failed} failed){spent}; "
+            f"wrote {n_files} files under {out}/")
 
 
 def _print_cells(cells: list[tuple[object, ...]], limit: int = 12) -> None:
@@ -490,6 +508,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "compensator fitted once (the axis of 'fricbench reproduce' and the "
                         "docs' figures; the seeds are copies); writes to leaderboards/nominal "
                         "unless --out is given")
+    p.add_argument("--fresh", action="store_true",
+                   help="write the tables of the envs run from this run's rows alone, dropping "
+                        "their earlier rows and seeds (what 'make bench' does); without it a "
+                        "run merges into them. An interrupted run merges either way")
     p.add_argument("--backend", choices=("joblib", "ray"), default="joblib",
                    help="run in local processes (joblib) or on a Ray cluster "
                         "(default: %(default)s)")
@@ -516,9 +538,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fricbench`` console script (exit 130 on Ctrl-C, no traceback)."""
+    started = time.perf_counter()  # the bench's wall time counts its imports
     try:
         parser = build_parser()  # imports torch: long enough to be interrupted
         args = parser.parse_args(argv)
+        args.started = started
     except KeyboardInterrupt:
         print("fricbench: interrupted", file=sys.stderr)
         return 130

@@ -127,13 +127,30 @@ def test_bench_unknown_compensator(capsys: pytest.CaptureFixture[str]) -> None:
     assert "did you mean 'kalman'" in capsys.readouterr().err
 
 
-def test_bench_writes_leaderboard(tmp_path: Path) -> None:
+def test_bench_writes_leaderboard(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "--envs", "fricbench/PaperAxis-v0", "--compensators", "none",
                  "--trajectories", "s_curve", "--seeds", "0", "--jobs", "1",
                  "--out", str(tmp_path)]) == 0
     assert (tmp_path / "PaperAxis-v0.csv").exists()
     assert (tmp_path / "PaperAxis-v0.md").exists()
     assert (tmp_path / "plots" / "PaperAxis-v0_s_curve.png").exists()
+    # the last line: the wall time, the runs, the CPU time per env
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert re.fullmatch(r"bench wall time: \d+ s on 1 job, 1 runs \(0 failed\) \(fits and runs, "
+                        r"CPU s: \d+; per env: PaperAxis-v0 \d+\); wrote \d+ files under .*/",
+                        last), last
+
+
+def test_bench_fresh_replaces_the_table_merge_keeps_it(tmp_path: Path) -> None:
+    one = ["bench", "--envs", "fricbench/PaperAxis-v0", "--compensators", "none",
+           "--trajectories", "s_curve", "--jobs", "1", "--out", str(tmp_path)]
+    assert main([*one, "--seeds", "0", "1"]) == 0
+    assert main([*one, "--seeds", "1"]) == 0
+    with (tmp_path / "PaperAxis-v0.csv").open() as fh:
+        assert sorted(r["seed"] for r in csv.DictReader(fh)) == ["0", "1"]  # merged
+    assert main([*one, "--seeds", "1", "--fresh"]) == 0
+    with (tmp_path / "PaperAxis-v0.csv").open() as fh:
+        assert [r["seed"] for r in csv.DictReader(fh)] == ["1"]  # this run's rows alone
 
 
 @pytest.mark.slow

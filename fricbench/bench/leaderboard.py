@@ -10,6 +10,9 @@ keeps the last good row of the cell, and the failure goes to ``<env>.failures.cs
 (the latest failure of each cell that has not succeeded since; the file is removed when no such
 cell is left). A cell that never succeeded is in the table as a ``failed`` row. The ``Failed
 runs`` section of the ``.md`` lists both kinds.
+With ``fresh`` (``fricbench bench --fresh``, what ``make bench`` runs), the files of each env
+the run scored hold this run's rows only: the rows, failures and seeds of earlier runs of that
+env are dropped, so a table regenerated on fewer seeds is not a merge with older ones.
 
 Each row records the constructor keywords its compensator was made with beyond the registered
 defaults (``compensator_kwargs``, JSON; ``fricbench bench --compensator-kwargs``), and the
@@ -167,8 +170,12 @@ def _settings_lines(rows: list[dict[str, str]], comps: Sequence[str]) -> list[st
             lines.append(f"  - `{c}`: {shown}{mixed}\n")
     if not lines:
         return []
+    files = sorted({w[i + 1] for r in rows for w in [r.get("command", "").split()]
+                    for i in range(len(w) - 1) if w[i] == "--compensator-config"})
+    why = (f"; why each differs from the default, a cut training budget included: the comments "
+           f"of {', '.join(f'`{f}`' for f in files)}" if files else "")
     return ["- Compensator settings (constructor keywords over the registered defaults; the "
-            "CSV's compensator_kwargs column):\n", *lines]
+            f"CSV's compensator_kwargs column{why}):\n", *lines]
 
 
 def _timing_rows(records: Iterable[EpisodeRecord]) -> list[dict[str, str]]:
@@ -615,12 +622,14 @@ def _plot_ballbar(env_id: str, trajectory: str, records: Sequence[EpisodeRecord]
 
 
 def write_leaderboards(records: Sequence[EpisodeRecord], out_dir: str | Path, command: str,
-                       commit: str, descriptions: dict[str, tuple[str, str]]) -> list[Path]:
+                       commit: str, descriptions: dict[str, tuple[str, str]],
+                       fresh: bool = False) -> list[Path]:
     """Merge ``records`` into the leaderboard files of their envs; return the written paths.
 
     ``descriptions`` maps env id to ``(description, fit_on)``. Each env's files are merged
     under the lock of ``<env>.lock``; a failed record never replaces a good row (see the
-    module docstring).
+    module docstring). With ``fresh``, the files of each env in ``records`` are written from
+    ``records`` alone, the earlier rows and failures of that env dropped.
     """
     out = Path(out_dir)
     written = []
@@ -631,22 +640,25 @@ def write_leaderboards(records: Sequence[EpisodeRecord], out_dir: str | Path, co
         stem = env_file_stem(env_id)
         desc, fit_on = descriptions.get(env_id, ("", env_id))
         with _locked(out / f"{stem}.lock"):
-            written += _merge_env(env_id, recs, out, stem, command, commit, desc, fit_on)
+            written += _merge_env(env_id, recs, out, stem, command, commit, desc, fit_on,
+                                  fresh)
     return written
 
 
 def _merge_env(env_id: str, recs: Sequence[EpisodeRecord], out: Path, stem: str, command: str,
-               commit: str, desc: str, fit_on: str) -> list[Path]:
-    """Read, merge and rewrite the files of one env (the caller holds its lock)."""
+               commit: str, desc: str, fit_on: str, fresh: bool = False) -> list[Path]:
+    """Read, merge and rewrite the files of one env (the caller holds its lock); with
+    ``fresh``, write them from ``recs`` alone."""
     csv_path = out / f"{stem}.csv"
     fail_path = out / f"{stem}.failures.csv"
     time_path = out / "timings" / f"{stem}.csv"
     new_rows = _record_rows(recs)
     for row in new_rows:
         row["command"], row["commit"] = command, commit
-    old_rows = {_key(r): {c: r.get(c, "") for c in CSV_COLUMNS} for r in _read_csv(csv_path)}
-    failures = {_key(r): {c: r.get(c, "") for c in FAILURE_COLUMNS}
-                for r in _read_csv(fail_path)}
+    old_rows = {} if fresh else {_key(r): {c: r.get(c, "") for c in CSV_COLUMNS}
+                                 for r in _read_csv(csv_path)}
+    failures = {} if fresh else {_key(r): {c: r.get(c, "") for c in FAILURE_COLUMNS}
+                                 for r in _read_csv(fail_path)}
     merged = dict(old_rows)
     for row in new_rows:
         k = _key(row)

@@ -358,9 +358,26 @@ FIT_SEED_STRIDE = 100
 noise), apart from the episode seeds and from the fits of the other seeds."""
 
 
+def _timed(fn: Callable[..., Any], *args: Any) -> tuple[Any, float]:
+    """``(fn(*args), CPU seconds it took)``: the work of one mapped call, timed in the process
+    that runs it (CPU time: what other programs on the machine take is not counted)."""
+    t0 = time.process_time()
+    out = fn(*args)
+    return out, time.process_time() - t0
+
+
+def _timed_fit(*args: Any) -> tuple[tuple[Compensator | None, str], float]:
+    return _timed(_fit_one, *args)
+
+
+def _timed_cell(*args: Any) -> tuple[list[EpisodeRecord], float]:
+    return _timed(_run_cell_task, *args)
+
+
 def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
                      map_fn: MapFn, comp_kwargs: CompKwargs | None = None,
                      plant_seeds: Sequence[int] | None = None,
+                     work: dict[str, float] | None = None,
                      ) -> dict[tuple[str, str, int | None], tuple[Compensator | None, str]]:
     """Fit each compensator once per training env (``fit_on`` of each benchmark env) and per
     plant seed.
@@ -369,7 +386,8 @@ def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
     ``comp_kwargs`` gives constructor keywords per compensator id. With ``plant_seeds``, each
     seed ``s`` gets its own fit on the plant :func:`plant_axes` draws for it, with the fit seed
     ``seed + FIT_SEED_STRIDE * s``, keyed ``(compensator, fit env, s)``; without, one fit on
-    the nominal axis with ``seed``, keyed ``(compensator, fit env, None)``.
+    the nominal axis with ``seed``, keyed ``(compensator, fit env, None)``. ``work``, when
+    given, gets the CPU seconds each fit took added to its training env's entry.
     """
     pairs = sorted({(c, get_spec(e).fit_on) for c in comp_ids for e in env_ids})
     kwargs = comp_kwargs or {}
@@ -383,10 +401,15 @@ def fit_compensators(comp_ids: Sequence[str], env_ids: Sequence[str], seed: int,
             else:
                 args.append((c, f, seed + FIT_SEED_STRIDE * s, dict(kwargs.get(c, {})),
                              plant_axes(f, s)[1]))
-    results = dict(map_fn(_fit_one, args))
-    return {key: ((None, f"fit failed: {results[i].reason}")
-                  if isinstance(results[i], LostTask) else results[i])
-            for i, key in enumerate(keys)}
+    results: dict[int, Any] = {}
+    for i, res in map_fn(_timed_fit, args):
+        if isinstance(res, LostTask):
+            results[i] = (None, f"fit failed: {res.reason}")
+            continue
+        results[i], seconds = res
+        if work is not None:
+            work[keys[i][1]] = work.get(keys[i][1], 0.0) + seconds
+    return {key: results[i] for i, key in enumerate(keys)}
 
 
 def _indexed(i: int, fn: Callable[..., Any], args: tuple[Any, ...]) -> tuple[int, Any]:
@@ -477,7 +500,10 @@ def _run_cell_task(fits: list[tuple[Compensator | None, str]], tasks: list[Bench
 
 
 def _progress_weight(result: Any) -> int:
-    """Progress ticks of one mapped result: a cell's list of records counts each run."""
+    """Progress ticks of one mapped result: a cell's list of records (timed or not) counts
+    each run."""
+    if isinstance(result, tuple) and len(result) == 2 and isinstance(result[0], list):
+        result = result[0]
     return len(result) if isinstance(result, list) else 1
 
 
@@ -658,7 +684,8 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
                   backend: str = "joblib", n_jobs: int = 2, address: str | None = None,
                   fit_seed: int = 1000, progress: bool = True,
                   comp_kwargs: CompKwargs | None = None,
-                  nominal: bool = False) -> Iterator[EpisodeRecord]:
+                  nominal: bool = False,
+                  work: dict[str, float] | None = None) -> Iterator[EpisodeRecord]:
     """Fit, then run every (env, compensator, trajectory, seed); yields records as they finish.
 
     Every argument is checked by :func:`plan_benchmark` before anything is fitted. Records come
@@ -689,6 +716,10 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
     nominal : bool
         Run the env's nominal, noise-free axis on every seed, each compensator fitted once per
         training env (as ``fricbench reproduce`` and the docs' figures; the seeds are copies).
+    work : dict, optional
+        Filled as the run goes with the CPU seconds of work per env id, summed over the
+        processes (each fit counted under its training env, each cell under its env): where the
+        time of a run goes, whatever the number of jobs and the machine's other load.
 
     Raises
     ------
@@ -714,7 +745,7 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
 
         map_fn = _joblib_map(n_jobs, tick) if backend == "joblib" else _ray_map(address, tick)
         fitted = fit_compensators(comp_ids, env_ids, fit_seed, map_fn, settings,
-                                  None if nominal else seeds)
+                                  None if nominal else seeds, work)
         bars[0].close()
         bars.append(tqdm(total=len(tasks), desc="bench", unit="run", disable=not progress))
         first_seed = min(seeds)
@@ -725,10 +756,15 @@ def run_benchmark(env_ids: Sequence[str], comp_ids: Sequence[str],
         args = [([fitted[(t.compensator, get_spec(t.env).fit_on, None if nominal else t.seed)]
                   for t in cell], cell, [t.seed == first_seed for t in cell], nominal)
                 for cell in cells.values()]
-        for i, recs in map_fn(_run_cell_task, args):
-            if isinstance(recs, LostTask):  # the cell's worker died on every try
+        for i, res in map_fn(_timed_cell, args):
+            if isinstance(res, LostTask):  # the cell's worker died on every try
                 recs = [replace(_new_record(t, nominal), status="failed",
-                                reason=f"cell lost: {recs.reason}"[:300]) for t in args[i][1]]
+                                reason=f"cell lost: {res.reason}"[:300]) for t in args[i][1]]
+            else:
+                recs, seconds = res
+                if work is not None:
+                    env = args[i][1][0].env
+                    work[env] = work.get(env, 0.0) + seconds
             for rec in recs:
                 rec.compensator_kwargs = dict(settings.get(rec.compensator, {}))
                 yield rec

@@ -119,8 +119,37 @@ def test_leaderboard_rerun_replaces_own_rows_keeps_others(tmp_path) -> None:
     assert not list(tmp_path.glob(".*"))  # no temp files left behind
 
 
+def test_a_fresh_write_drops_the_earlier_rows_of_the_envs_it_ran(tmp_path: Path) -> None:
+    desc = {"fricbench/PaperAxis-v0": ("d", "fricbench/PaperAxis-v0")}
+    failed = replace(_rec("kalman", 9, 1.0), status="failed", reason="boom")
+    write_leaderboards([_rec("none", s, 20.0) for s in range(4)] + [failed], tmp_path, "old",
+                       "abc", desc)
+    assert (tmp_path / "PaperAxis-v0.failures.csv").exists()
+    write_leaderboards([_rec("none", 0, 10.0), _rec("kalman", 0, 5.0)], tmp_path, "new", "def",
+                       desc, fresh=True)
+    rows = _rows(tmp_path / "PaperAxis-v0.csv")
+    # the seeds 1-3 and the failure of the earlier run are gone: a table on fewer seeds
+    assert sorted((r["compensator"], r["seed"], r["max_um"]) for r in rows) == [
+        ("kalman", "0", "5.000"), ("none", "0", "10.000")]
+    assert not (tmp_path / "PaperAxis-v0.failures.csv").exists()
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert "- Made by: `new`" in md and "old" not in md and "- Seeds: [0] (n = 1)" in md
+
+
 PAPER = "fricbench/PaperAxis-v0"
 DESC = {PAPER: ("d", PAPER)}
+
+
+def test_the_settings_line_points_to_the_settings_file(tmp_path: Path) -> None:
+    desc = {"fricbench/PaperAxis-v0": ("d", "fricbench/PaperAxis-v0")}
+    tuned = replace(_rec("ilc", 0, 1.0), compensator_kwargs={"gain": 0.3})
+    write_leaderboards([_rec("none", 0, 20.0), tuned], tmp_path,
+                       "fricbench bench --compensator-config lb/bench.toml --seeds 0", "abc",
+                       desc)
+    md = (tmp_path / "PaperAxis-v0.md").read_text()
+    assert "why each differs from the default, a cut training budget included: the comments " \
+           "of `lb/bench.toml`" in md
+    assert '  - `ilc`: `{"gain": 0.3}`' in md
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
@@ -427,6 +456,19 @@ def test_a_circle_trace_is_the_scored_contour_error() -> None:
     peak = float(np.max(np.abs(rec.trace_error)))
     # subsampled: at most the full-rate maximum, and close to it
     assert 0.9 * rec.max_error <= peak <= rec.max_error * (1 + 1e-12)
+
+
+def test_work_is_counted_per_env_fits_under_their_training_env() -> None:
+    shifted = "fricbench/PaperAxisShifted-v0"
+    assert get_spec(shifted).fit_on == PAPER
+    work: dict[str, float] = {}
+    records = list(run_benchmark([shifted], ["none", "tf-precomp"], [0], ["s_curve"], n_jobs=1,
+                                 progress=False, work=work,
+                                 comp_kwargs={"tf-precomp": {"n_runs": 1,
+                                                             "run_duration": 4.0}}))
+    assert [r.status for r in records] == ["ok", "ok"]
+    # the fits ran on PaperAxis-v0's plant, the cells on the shifted env: each its CPU time
+    assert set(work) == {PAPER, shifted} and all(v > 0 for v in work.values())
 
 
 def test_the_bench_bar_counts_the_runs(monkeypatch: pytest.MonkeyPatch) -> None:
