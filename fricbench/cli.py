@@ -222,11 +222,17 @@ def _cmd_perf(args: argparse.Namespace) -> int:
     return 0
 
 
+# generated files (the tables a bench writes): not what makes a commit "+dirty", so that the
+# second command of `make bench` names the commit as the first one does
+_GENERATED = tuple(f":(top,exclude,glob)leaderboards/**/*.{ext}" for ext in ("csv", "md", "png"))
+
+
 def _git_commit() -> str:
     try:
         out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                              text=True, check=True, cwd=Path(__file__).resolve().parent)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                ":(top)", *_GENERATED],
                                capture_output=True, text=True, check=True,
                                cwd=Path(__file__).resolve().parent).stdout.strip()
         return out.stdout.strip() + ("+dirty" if dirty else "")
