@@ -1,8 +1,8 @@
 """How often ``fricbench diagnose`` is right, on runs of an independent simulator.
 
-``python -m fricbench.bench.diagnosis_accuracy [--set tuning|heldout|both] [--jobs 2]
-[--backend joblib|ray] [--out leaderboards/diagnosis.md]`` draws runs of the tests' second
-simulator (``tests/sysid/second_sim.py``: its own integrator, stick-slip, controllers, units
+``python -m fricbench.bench.diagnosis_accuracy [--sim second|third] [--set tuning|heldout|both]
+[--jobs 2] [--backend joblib|ray] [--out leaderboards/diagnosis.md]`` draws runs of the tests'
+second simulator (``tests/sysid/second_sim.py``: its own integrator, stick-slip, controllers, units
 and log layouts, written apart from the project's plant), runs the real command line on each
 and judges the report against the run's truth (``tests/sysid/second_sim_check.py``: the effect
 present named, no effect named that is absent, the free-run position error at most half the
@@ -21,6 +21,17 @@ Two sets of runs, kept apart as a model's training and test data are:
 The table (right / missed / false per effect, per loop structure, the commit and the tuning
 seeds) is written atomically; the exit status is 0 when every run was diagnosed (right or not),
 1 when a run failed outright (a traceback, a non-finite number: those are also counted wrong).
+
+``--sim third`` draws instead the third simulator's machines (``tests/sysid/third_sim.py``:
+written apart from both others, one kind per machine: a PWM DC motor, a vertical axis, LuGre
+presliding, a linear motor's cogging harmonics, a warming screw, mains hum, a jittered logger, a
+rotary table in degrees, a velocity-loop drive with backlash, a belt with both encoders, open-loop
+current runs, and each drive family's friction-only control), judged per kind by
+``tests/sysid/third_sim_check.py``. Its tuning seeds are :data:`THIRD_TUNING_SEEDS`, its held-out
+set :data:`THIRD_HELDOUT_RUNS` seeds drawn from its own :data:`THIRD_HELDOUT_ENTROPY` (never listed,
+as above); its tables are a section of their own in the same file (the second simulator's
+section is kept as it is, and the other way round), its tuning rows go to
+``diagnosis_third_tuning.csv``.
 
 It needs a checkout of the repository (the simulators live with the tests), and takes about
 25 s of CPU per run: the held-out set is a benchmark command, not part of ``make test``.
@@ -43,7 +54,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["HELDOUT_ENTROPY", "HELDOUT_RUNS", "CaseResult", "tuning_cases", "heldout_cases",
+__all__ = ["HELDOUT_ENTROPY", "HELDOUT_RUNS", "THIRD_HELDOUT_ENTROPY", "THIRD_HELDOUT_RUNS",
+           "THIRD_TUNING_SEEDS", "SIMULATORS", "CaseResult", "tuning_cases", "heldout_cases",
            "run_cases", "summarise", "write_table", "main"]
 
 HELDOUT_ENTROPY = 0x5EC0_2D51_4D00
@@ -63,6 +75,18 @@ TUNING_SEEDS = tuple(range(1, 29))
 TUNING_EXTRA = tuple(range(500, 505))
 """Seeds of each kind reported in the tracker (then studied): tuning, not held out."""
 
+THIRD_HELDOUT_ENTROPY = 0x7A1D_3F06_B9E2
+"""Entropy of the third simulator's held-out seeds: its own, fixed, never listed."""
+
+THIRD_HELDOUT_RUNS = 112
+"""Runs of the third simulator's held-out set: 7 seeds of each of its 16 kinds."""
+
+THIRD_TUNING_SEEDS = tuple(range(1, 9))
+"""Seeds of each of the third simulator's kinds the diagnosis may be developed on."""
+
+SIMULATORS = ("second", "third")
+"""The tests' simulators the accuracy is measured on."""
+
 _SIM_DIR = ("tests", "sysid")
 
 
@@ -77,12 +101,15 @@ def _sim_dir() -> Path:
     return folder
 
 
-def _sim_modules() -> tuple[Any, Any]:
-    """The second simulator and its judge, imported from the tests' folder."""
+def _sim_modules(sim: str = "second") -> tuple[Any, Any]:
+    """The simulator ``sim`` (``second`` or ``third``) and its judge, imported from the tests'
+    folder."""
+    if sim not in SIMULATORS:
+        raise ValueError(f"sim={sim!r}: expected one of {SIMULATORS}")
     folder = str(_sim_dir())
     if folder not in sys.path:
         sys.path.insert(0, folder)
-    return importlib.import_module("second_sim"), importlib.import_module("second_sim_check")
+    return (importlib.import_module(f"{sim}_sim"), importlib.import_module(f"{sim}_sim_check"))
 
 
 @dataclass(frozen=True)
@@ -94,7 +121,8 @@ class CaseResult:
     kind, seed : str, int
         The simulator's case.
     present : str or None
-        The effect the run carries (None: a control run, friction only).
+        The effect the run carries (None: a control run, friction only; ``a|b``: either name
+        is right).
     named : tuple of str
         The effects the report names.
     ok : bool
@@ -102,8 +130,8 @@ class CaseResult:
     failures : tuple of str
         Why not.
     law, log_rate, effort : str
-        The run's loop structure: ``cascade`` or ``pid``, ``1kHz`` or ``100Hz``, the logged
-        effort's unit or ``none``.
+        The run's loop structure: ``cascade`` or ``pid`` (the third simulator: its drive
+        family), ``1kHz`` or ``100Hz``, the logged effort's unit or ``none``.
     crashed : bool
         A traceback or a non-finite number in the report.
     elapsed : float
@@ -123,21 +151,29 @@ class CaseResult:
     elapsed: float
 
 
-def tuning_cases(extra: bool = True) -> list[tuple[str, int]]:
+def tuning_cases(extra: bool = True, sim: str = "second") -> list[tuple[str, int]]:
     """The tuning set's ``(kind, seed)`` pairs: :data:`TUNING_SEEDS` (and :data:`TUNING_EXTRA`)
-    of every kind."""
-    kinds = _sim_modules()[0].KINDS
-    seeds = TUNING_SEEDS + (TUNING_EXTRA if extra else ())
+    of every kind; for the third simulator :data:`THIRD_TUNING_SEEDS`."""
+    kinds = _sim_modules(sim)[0].KINDS
+    if sim == "third":
+        seeds = THIRD_TUNING_SEEDS
+    else:
+        seeds = TUNING_SEEDS + (TUNING_EXTRA if extra else ())
     return [(k, s) for s in seeds for k in kinds]
 
 
-def heldout_cases(n: int = HELDOUT_RUNS) -> list[tuple[str, int]]:
-    """The held-out set's ``(kind, seed)`` pairs: ``n`` distinct seeds drawn from
-    :data:`HELDOUT_ENTROPY`, the kinds taken in turn."""
+def heldout_cases(n: int | None = None, sim: str = "second") -> list[tuple[str, int]]:
+    """The held-out set's ``(kind, seed)`` pairs: ``n`` distinct seeds (default
+    :data:`HELDOUT_RUNS`, :data:`THIRD_HELDOUT_RUNS` for the third simulator) drawn from the
+    simulator's entropy (:data:`HELDOUT_ENTROPY`, :data:`THIRD_HELDOUT_ENTROPY`), the kinds
+    taken in turn."""
+    if n is None:
+        n = THIRD_HELDOUT_RUNS if sim == "third" else HELDOUT_RUNS
     if n < 1:
         raise ValueError(f"n={n!r}: expected a positive number of held-out runs")
-    kinds = _sim_modules()[0].KINDS
-    state = np.random.SeedSequence(HELDOUT_ENTROPY).generate_state(4 * n, dtype=np.uint32)
+    kinds = _sim_modules(sim)[0].KINDS
+    entropy = THIRD_HELDOUT_ENTROPY if sim == "third" else HELDOUT_ENTROPY
+    state = np.random.SeedSequence(entropy).generate_state(4 * n, dtype=np.uint32)
     seeds: list[int] = []
     for v in state:
         s = HELDOUT_SEED_BASE + int(v) % 1_000_000
@@ -162,9 +198,26 @@ def diagnose_one(kind: str, seed: int, duration: float | None = None) -> CaseRes
                       effort=var.effort or "none", crashed=crashed, elapsed=out.elapsed)
 
 
+def diagnose_one_third(kind: str, seed: int, duration: float | None = None) -> CaseResult:
+    """Draw the third simulator's run ``kind``/``seed``, diagnose it and judge it."""
+    sim, check = _sim_modules("third")
+    case = sim.draw_case(kind, seed, duration=duration)
+    with tempfile.TemporaryDirectory(prefix="diagnosis-accuracy-") as workdir:
+        out = check.diagnose_case(case, workdir)
+    truth = case.truth()
+    wanted = list(truth["required"]) + ["|".join(truth["one_of"])] * bool(truth["one_of"])
+    crashed = any(f.startswith(("traceback", "non-finite", "JSON")) for f in out.failures)
+    return CaseResult(kind=kind, seed=seed, present=",".join(wanted) or None,
+                      named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
+                      law=case.family, log_rate=case.log_rate,
+                      effort=case.effort_unit or "none", crashed=crashed, elapsed=out.elapsed)
+
+
 def run_cases(cases: Sequence[tuple[str, int]], *, jobs: int = 2, backend: str = "joblib",
-              address: str | None = None, progress: bool = True) -> list[CaseResult]:
-    """Diagnose ``cases`` on the bench's backend; results in the order of ``cases``."""
+              address: str | None = None, progress: bool = True,
+              sim: str = "second") -> list[CaseResult]:
+    """Diagnose ``cases`` of the simulator ``sim`` on the bench's backend; results in the order
+    of ``cases``."""
     from fricbench.bench.runner import _joblib_map, _ray_map
 
     if backend not in ("joblib", "ray"):
@@ -184,7 +237,8 @@ def run_cases(cases: Sequence[tuple[str, int]], *, jobs: int = 2, backend: str =
     map_fn = _joblib_map(jobs, tick) if backend == "joblib" else _ray_map(address, tick)
     results: list[CaseResult | None] = [None] * len(cases)
     try:
-        for i, res in map_fn(diagnose_one, [(k, s) for k, s in cases]):
+        fn = diagnose_one_third if sim == "third" else diagnose_one
+        for i, res in map_fn(fn, [(k, s) for k, s in cases]):
             results[i] = res
     finally:
         if bar is not None:
@@ -206,12 +260,21 @@ class Summary:
     present: Counter[str] = field(default_factory=Counter)
     false: Counter[str] = field(default_factory=Counter)
     by_structure: dict[str, list[int]] = field(default_factory=lambda: defaultdict(lambda: [0, 0]))
+    by_kind: dict[str, list[int]] = field(default_factory=lambda: defaultdict(lambda: [0, 0]))
+    why: dict[str, Counter[str]] = field(default_factory=lambda: defaultdict(Counter))
     seconds: list[float] = field(default_factory=list)
 
     @property
     def share(self) -> float:
         """Share of the runs diagnosed right, %."""
         return 100.0 * self.right / self.n if self.n else 0.0
+
+
+def _reason(failure: str) -> str:
+    """A judge's failure message without its figures (for counting runs per reason)."""
+    if failure.startswith(("missed", "named absent", "no warning", "the hum")):
+        return failure
+    return failure.split(" ")[0].rstrip(":")
 
 
 def summarise(results: Sequence[CaseResult], friction: frozenset[str]) -> Summary:
@@ -225,18 +288,23 @@ def summarise(results: Sequence[CaseResult], friction: frozenset[str]) -> Summar
         s.right += r.ok
         s.crashed += r.crashed
         s.seconds.append(r.elapsed)
-        false = set(r.named) - friction - ({r.present} if r.present else set())
+        wanted = r.present.split(",") if r.present else []
+        false = set(r.named) - friction - {n for w in wanted for n in w.split("|")}
         for name in false:
             s.false[name] += 1
         if r.present is None:
             s.controls += 1
             s.controls_false += bool(false)
-        else:
-            s.present[r.present] += 1
-            if r.present in r.named:
-                s.found[r.present] += 1
+        for w in wanted:
+            s.present[w] += 1
+            if set(w.split("|")) & set(r.named):
+                s.found[w] += 1
             else:
-                s.missed[r.present] += 1
+                s.missed[w] += 1
+        s.by_kind[r.kind][0] += r.ok
+        s.by_kind[r.kind][1] += 1
+        for f in r.failures:
+            s.why[r.kind][_reason(f)] += 1
         for key in (f"law: {r.law}", f"log: {r.log_rate}",
                     f"effort: {'logged' if r.effort != 'none' else 'not logged'}"):
             s.by_structure[key][0] += r.ok
@@ -253,7 +321,7 @@ def _git(*args: str) -> str:
     return out.stdout.strip() or "unknown"
 
 
-def _section(title: str, s: Summary) -> Iterator[str]:
+def _section(title: str, s: Summary, per_kind: bool = False) -> Iterator[str]:
     yield f"## {title}: {s.right}/{s.n} right ({s.share:.1f} %)"
     yield ""
     yield (f"- control runs (friction only) with a false effect: {s.controls_false}/"
@@ -275,29 +343,71 @@ def _section(title: str, s: Summary) -> Iterator[str]:
         ok, n = s.by_structure[key]
         yield f"| {key} | {ok} | {n} | {100.0 * ok / n:.1f} |"
     yield ""
+    if per_kind:
+        yield "| kind | right | runs | why not (runs) |"
+        yield "|---|---|---|---|"
+        for kind in sorted(s.by_kind):
+            ok, n = s.by_kind[kind]
+            why = "; ".join(f"{k} ({v})" for k, v in sorted(s.why[kind].items()))
+            yield f"| {kind} | {ok} | {n} | {why} |"
+        yield ""
+
+
+THIRD_MARK = "<!-- third simulator: python -m fricbench.bench.diagnosis_accuracy --sim third -->"
+"""The line that opens the third simulator's part of the table file."""
+
+
+def _header(sim: str, command: str, note: str) -> list[str]:
+    dirty = _git("status", "--porcelain", "-uno") not in ("", "unknown")
+    made = (f"Generated by `{command}` at commit `{_git('rev-parse', '--short', 'HEAD')}`"
+            f"{' (with uncommitted changes)' if dirty else ''} on {time.strftime('%Y-%m-%d')}.")
+    if sim == "third":
+        lines = [THIRD_MARK, "", "# Diagnosis accuracy on the third simulator", "", made, "",
+                 "Machines the diagnosis was not shaped on (`tests/sysid/third_sim.py`, one kind "
+                 "per machine and a friction-only control per drive family). A run is right when "
+                 "the command exits 0 with finite numbers, every effect the kind carries is named "
+                 "(the vertical axis: a force offset or an asymmetric friction), no axis effect "
+                 "it lacks is named (backlash, cogging, thermal drift, position-dependent "
+                 "friction, compliance; friction descriptions are never wrong), the hum is not "
+                 "called a resonance, the jittered log is resampled with a warning, and the "
+                 "free-run position error is at most half the linear model's or 1.5 noise floors "
+                 "(see `tests/sysid/third_sim_check.py`). Tuning seeds: "
+                 f"{THIRD_TUNING_SEEDS[0]}-{THIRD_TUNING_SEEDS[-1]} of each kind; the held-out "
+                 f"set is {THIRD_HELDOUT_RUNS} seeds drawn from `THIRD_HELDOUT_ENTROPY` in "
+                 "`fricbench/bench/diagnosis_accuracy.py`, never listed.", ""]
+    else:
+        lines = ["# Diagnosis accuracy on the second simulator", "", made, "",
+                 "A run is right when the effect it carries is named, no absent effect is named "
+                 "(friction of any form is never absent) and the free-run position error is at "
+                 "most half the linear model's or 1.5 noise floors. Tuning seeds: "
+                 f"{TUNING_SEEDS[0]}-{TUNING_SEEDS[-1]} and {TUNING_EXTRA[0]}-{TUNING_EXTRA[-1]} "
+                 "of each kind; the held-out set is "
+                 f"{HELDOUT_RUNS} seeds drawn from `HELDOUT_ENTROPY` in "
+                 "`fricbench/bench/diagnosis_accuracy.py`, never listed (see its docstring).", ""]
+    if note:
+        lines += [note, ""]
+    return lines
 
 
 def write_table(path: str | os.PathLike[str], sections: Sequence[tuple[str, Summary]],
-                command: str, note: str = "") -> None:
-    """Write the accuracy table (markdown) atomically."""
+                command: str, note: str = "", sim: str = "second") -> None:
+    """Write the accuracy table (markdown) of the simulator ``sim`` atomically.
+
+    The file holds the second simulator's part, then the third's (opened by
+    :data:`THIRD_MARK`): the part of the other simulator already in the file is kept."""
     from fricbench._atomic import atomic_write
 
-    lines = ["# Diagnosis accuracy on the second simulator", "",
-             f"Generated by `{command}` at commit `{_git('rev-parse', '--short', 'HEAD')}`"
-             f"{' (with uncommitted changes)' if _git('status', '--porcelain', '-uno') not in ('', 'unknown') else ''}"  # noqa: E501
-             f" on {time.strftime('%Y-%m-%d')}.", "",
-             "A run is right when the effect it carries is named, no absent effect is named "
-             "(friction of any form is never absent) and the free-run position error is at "
-             "most half the linear model's or 1.5 noise floors. Tuning seeds: "
-             f"{TUNING_SEEDS[0]}-{TUNING_SEEDS[-1]} and {TUNING_EXTRA[0]}-{TUNING_EXTRA[-1]} "
-             "of each kind; the held-out set is "
-             f"{HELDOUT_RUNS} seeds drawn from `HELDOUT_ENTROPY` in "
-             "`fricbench/bench/diagnosis_accuracy.py`, never listed (see its docstring).", ""]
-    if note:
-        lines += [note, ""]
+    lines = _header(sim, command, note)
     for title, s in sections:
-        lines += list(_section(title, s))
-    atomic_write(path, "\n".join(lines))
+        lines += list(_section(title, s, per_kind=sim == "third"))
+    text = "\n".join(lines)
+    old = Path(path).read_text(encoding="utf-8") if Path(path).is_file() else ""
+    second, _, third = old.partition(THIRD_MARK)
+    if sim == "third":
+        text = (second.rstrip("\n") + "\n\n" + text) if second.strip() else text
+    elif third.strip():
+        text = text.rstrip("\n") + "\n\n" + THIRD_MARK + third
+    atomic_write(path, text)
 
 
 def _write_cases(path: str | os.PathLike[str], results: Sequence[CaseResult]) -> None:
@@ -316,22 +426,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the chosen sets, print and write the table."""
     ap = argparse.ArgumentParser(prog="python -m fricbench.bench.diagnosis_accuracy",
                                  description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("--sim", choices=SIMULATORS, default="second",
+                    help="the tests' simulator whose runs are diagnosed (default: second)")
     ap.add_argument("--set", dest="which", choices=("tuning", "heldout", "both"),
                     default="both", help="which runs (default: both)")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     ap.add_argument("--backend", choices=("joblib", "ray"), default="joblib")
     ap.add_argument("--address", default=None, help="Ray cluster address (with --backend ray)")
-    ap.add_argument("--heldout-runs", type=int, default=HELDOUT_RUNS,
-                    help=f"runs of the held-out set (default {HELDOUT_RUNS})")
+    ap.add_argument("--heldout-runs", type=int, default=None,
+                    help=f"runs of the held-out set (default {HELDOUT_RUNS}, with --sim third "
+                         f"{THIRD_HELDOUT_RUNS}: one kind after the other)")
     ap.add_argument("--out", default="leaderboards/diagnosis.md",
                     help="the table (default leaderboards/diagnosis.md); '-' prints only")
     args = ap.parse_args(argv)
     if not (args.jobs == -1 or args.jobs >= 1):
         ap.error(f"--jobs {args.jobs}: expected a positive number of workers or -1 (all)")
-    if args.heldout_runs < 1:
+    if args.heldout_runs is not None and args.heldout_runs < 1:
         ap.error(f"--heldout-runs {args.heldout_runs}: expected a positive number of runs")
     try:
-        sim = _sim_modules()[0]
+        sim = _sim_modules(args.sim)[0]
     except FileNotFoundError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -340,22 +453,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     failed = False
     t0 = time.perf_counter()
     plan = []
+    third = args.sim == "third"
     if args.which in ("tuning", "both"):
-        plan.append(("Tuning set", tuning_cases(), True))
+        plan.append(("Tuning set", tuning_cases(sim="third") if third else tuning_cases(), True))
     if args.which in ("heldout", "both"):
-        plan.append(("Held-out set", heldout_cases(args.heldout_runs), False))
+        plan.append(("Held-out set", heldout_cases(args.heldout_runs, sim="third") if third
+                     else heldout_cases(args.heldout_runs or HELDOUT_RUNS), False))
+    rows_name = "diagnosis_third_tuning.csv" if third else "diagnosis_tuning.csv"
     for title, cases, keep_rows in plan:
-        results = run_cases(cases, jobs=args.jobs, backend=args.backend, address=args.address)
+        results = (run_cases(cases, jobs=args.jobs, backend=args.backend, address=args.address,
+                             sim="third") if third else
+                   run_cases(cases, jobs=args.jobs, backend=args.backend, address=args.address))
         s = summarise(results, friction)
         failed |= s.crashed > 0
         sections.append((title, s))
-        print("\n".join(_section(title, s)), flush=True)
+        print("\n".join(_section(title, s, per_kind=third)), flush=True)
         if keep_rows and args.out != "-":
-            _write_cases(Path(args.out).with_name("diagnosis_tuning.csv"), results)
+            _write_cases(Path(args.out).with_name(rows_name), results)
     command = "python -m fricbench.bench.diagnosis_accuracy " + " ".join(
         argv if argv is not None else sys.argv[1:])
     if args.out != "-":
-        write_table(args.out, sections, command.strip())
+        write_table(args.out, sections, command.strip(), sim=args.sim)
         print(f"wrote {args.out} ({time.perf_counter() - t0:.0f} s)")
     return 1 if failed else 0
 
