@@ -76,3 +76,62 @@ def test_command_refuses_bad_options(capsys: pytest.CaptureFixture) -> None:
         A.main(["--jobs", "0"])
     assert exc.value.code == 2
     assert "--jobs 0" in capsys.readouterr().err
+
+
+def test_third_heldout_set_is_its_own_fixed_and_apart_from_its_tuning() -> None:
+    held = A.heldout_cases(sim="third")
+    assert held == A.heldout_cases(sim="third")
+    assert len(held) == A.THIRD_HELDOUT_RUNS >= 100
+    seeds = [s for _, s in held]
+    assert len(set(seeds)) == len(seeds) and min(seeds) >= A.HELDOUT_SEED_BASE
+    assert not {s for _, s in A.tuning_cases(sim="third")} & set(seeds)
+    assert seeds != [s for _, s in A.heldout_cases(len(held))]  # not the second's seeds
+    kinds = [k for k, _ in held]
+    counts = {k: kinds.count(k) for k in set(kinds)}
+    assert len(counts) == 16 and max(counts.values()) == min(counts.values())
+    # the first runs take the kinds in turn: 2 per kind is the first 32
+    assert sorted({kinds[:32].count(k) for k in set(kinds)}) == [2]
+
+
+def test_summary_counts_one_of_and_several_wanted_effects() -> None:
+    friction = frozenset({"coulomb_friction", "force_offset", "asymmetric_friction"})
+    results = [
+        A.CaseResult(kind="vertical", seed=1, present="force_offset|asymmetric_friction",
+                     named=("coulomb_friction", "asymmetric_friction"), ok=True, failures=(),
+                     law="servo", log_rate="1kHz", effort="A", crashed=False, elapsed=1.0),
+        A.CaseResult(kind="hum", seed=1, present=None, named=("cogging",), ok=False,
+                     failures=("named absent cogging", "rms 1 -> 1 (x1.00), floor 0.1"),
+                     law="servo", log_rate="1kHz", effort="none", crashed=False, elapsed=1.0),
+    ]
+    s = A.summarise(results, friction)
+    assert s.found["force_offset|asymmetric_friction"] == 1 and not s.false.get("force_offset")
+    assert (s.controls, s.controls_false) == (1, 1) and s.false == {"cogging": 1}
+    assert s.by_kind == {"vertical": [1, 1], "hum": [0, 1]}
+    assert s.why["hum"] == {"named absent cogging": 1, "rms": 1}
+
+
+def test_third_sim_section_keeps_the_second_sims_table(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "diagnosis.md"
+    out.write_text("# Diagnosis accuracy on the second simulator\n\nsecond's figures\n")
+    monkeypatch.setattr(A, "tuning_cases", lambda extra=True, sim="second": [("hum", 1)])
+    monkeypatch.setattr(A, "diagnose_one_third", lambda kind, seed: A.CaseResult(
+        kind=kind, seed=seed, present=None, named=("coulomb_friction",), ok=True, failures=(),
+        law="servo", log_rate="1kHz", effort="A", crashed=False, elapsed=1.0))
+    assert A.main(["--sim", "third", "--set", "tuning", "--jobs", "1", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert text.startswith("# Diagnosis accuracy on the second simulator\n\nsecond's figures")
+    assert A.THIRD_MARK in text and "# Diagnosis accuracy on the third simulator" in text
+    assert "| hum | 1 | 1 |  |" in text
+    assert (tmp_path / "diagnosis_third_tuning.csv").read_text().splitlines()[1].startswith(
+        "hum,1,")
+    # and the second simulator's rerun keeps the third's section
+    monkeypatch.setattr(A, "diagnose_one", lambda kind, seed: _result(kind, None,
+                                                                      ("coulomb_friction",), True))
+    assert A.main(["--set", "tuning", "--jobs", "1", "--out", str(out)]) == 0
+    again = out.read_text()
+    assert "second's figures" not in again and "## Tuning set: 1/1 right" in again
+    assert again.count(A.THIRD_MARK) == 1 and "| hum | 1 | 1 |  |" in again
+    with pytest.raises(SystemExit) as exc:
+        A.main(["--sim", "first"])
+    assert exc.value.code == 2
