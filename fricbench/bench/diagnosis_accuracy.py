@@ -334,8 +334,9 @@ def _section(title: str, s: Summary, per_kind: bool = False) -> Iterator[str]:
     yield "| effect | present | found | missed | named where absent |"
     yield "|---|---|---|---|---|"
     for name in sorted(set(s.present) | set(s.false)):
-        yield (f"| {name} | {s.present[name]} | {s.found[name]} | {s.missed[name]} | "
-               f"{s.false[name]} |")
+        # "a|b": either name is right (and a "|" would split the markdown cell)
+        yield (f"| {name.replace('|', ' or ')} | {s.present[name]} | {s.found[name]} | "
+               f"{s.missed[name]} | {s.false[name]} |")
     yield ""
     yield "| loop structure | right | runs | % |"
     yield "|---|---|---|---|"

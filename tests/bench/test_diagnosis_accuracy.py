@@ -108,6 +108,9 @@ def test_summary_counts_one_of_and_several_wanted_effects() -> None:
     assert (s.controls, s.controls_false) == (1, 1) and s.false == {"cogging": 1}
     assert s.by_kind == {"vertical": [1, 1], "hum": [0, 1]}
     assert s.why["hum"] == {"named absent cogging": 1, "rms": 1}
+    table = "\n".join(A._section("Held-out set", s, per_kind=True))
+    assert "| force_offset or asymmetric_friction | 1 | 1 | 0 | 0 |" in table
+    assert "| hum | 0 | 1 | named absent cogging (1); rms (1) |" in table
 
 
 def test_third_sim_section_keeps_the_second_sims_table(tmp_path: Path,

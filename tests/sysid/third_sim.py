@@ -772,12 +772,9 @@ def _draw_machine(rng: np.random.Generator, kind: str, duration: float
                              0.03, 0.08), spot_center=stroke * rng.uniform(-0.3, 0.3))
             mc = replace(mc, **_pid_gains(rng, mc.m_motor, mc.kt, ts))
             log["unit"] = "deg"
-        if kind in ("vertical", "rotary_table"):
-            pass
-        elif kind in ("servo_control", "hum", "jitter", "lugre", "warming_screw"):
+        if kind in ("servo_control", "hum", "jitter", "lugre", "warming_screw"):
+            # a current (A) or a force command (kt * i, N), or no effort at all
             log["effort_unit"] = str(rng.choice(["A", "N"])) if rng.random() < 0.7 else None
-        if log["effort_unit"] == "N":
-            pass  # the force command kt * i is logged
         if log["unit"] == "mm" and kind not in ("rotary_table", "belt", "belt_control"):
             log["unit"] = str(rng.choice(["mm", "um", "m"]))
         if fam == "belt":
