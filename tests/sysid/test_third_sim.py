@@ -47,6 +47,17 @@ def test_every_kind_is_drawn_bit_for_bit_from_its_seed(cases: dict[str, S.Case])
     assert other.csv_text() != cases["servo_control"].csv_text()
 
 
+def test_references_reverse_whatever_the_stroke_and_speed() -> None:
+    # a long stroke at the lowest speed drawn: still back and forth within a few seconds
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        ref = S.minimum_jerk_reference(rng, 5.0, 1e-3, 0.1, 0.2, 0.03)
+        d = np.sign(np.diff(ref))
+        d = d[d != 0]
+        assert np.sum(d[1:] != d[:-1]) >= 2, seed
+        assert np.ptp(ref) == pytest.approx(0.2, rel=0.01)
+
+
 def test_bad_kind_and_duration_are_refused() -> None:
     with pytest.raises(ValueError, match="kind='gantry'"):
         S.draw_case("gantry", 1)

@@ -456,7 +456,8 @@ def minimum_jerk_reference(rng: np.random.Generator, duration: float, ts: float,
     """Point-to-point moves between random targets, each a minimum-jerk profile
     ``x0 + D (10 s^3 - 15 s^4 + 6 s^5)``, with dwells between them. The first two moves go to
     the stroke's ends; a third of the others are short and slow (a tenth of the speed or
-    less)."""
+    less); three in four of the others cross the centre. No move lasts more than 1 s (a slow
+    one 2 s), so a run reverses every few seconds."""
     n = int(round(duration / ts))
     x = np.empty(n)
     pos = center
@@ -473,12 +474,18 @@ def minimum_jerk_reference(rng: np.random.Generator, duration: float, ts: float,
             # a slow move is a short one: a few percent of the stroke, back towards the centre
             step = stroke * rng.uniform(0.03, 0.12)
             target = pos - step if pos > center else pos + step
+        elif rng.random() < 0.75:
+            # mostly across the centre: back and forth, as a machine's test cycle goes
+            target = center - math.copysign(stroke * rng.uniform(0.1, 0.5), pos - center)
         else:
             target = center + stroke * rng.uniform(-0.5, 0.5)
         dist = target - pos
         if abs(dist) < 0.02 * stroke:
             continue
         speed = v_peak * (rng.uniform(0.02, 0.1) if slow else rng.uniform(0.4, 1.0))
+        # no move longer than 1 s (a slow one 2 s): a long stroke at a low speed would
+        # otherwise fill the run with one move, and the run would never reverse
+        speed = max(speed, 1.875 * abs(dist) / (2.0 if slow else 1.0))
         # peak speed of a minimum-jerk move is 1.875 D / T_move
         t_move = max(1.875 * abs(dist) / speed, 0.05)
         m = max(int(t_move / ts), 2)
