@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import os
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -109,6 +110,32 @@ def _measure(p: np.ndarray, s: np.ndarray, noise: float) -> None:
     s[S_XMEAS] = logged
 
 
+class Gains(NamedTuple):
+    """The cascade's gains and the linear law's sizes of a parameter row, unpacked once
+    (:func:`gains`): scalars, not array loads, so that a caller stepping many axes that share
+    one row reads them, and computes ``Ts / Ti`` and the reciprocals of ``Ts`` and ``Kt``,
+    once per step instead of once per axis."""
+
+    ts: float
+    kp: float
+    kvff: float
+    kaff: float
+    kv: float
+    ti: float
+    ki: float  # Ts / Ti (0 without an integrator)
+    law: bool  # the identified linear law replaces the cascade
+    na: int
+    nc: int
+    nr: int
+
+
+def gains(p: np.ndarray) -> Gains:
+    """Unpack the controller entries of parameter row ``p``."""
+    ts, ti = p[P_TS], p[P_TI]
+    return Gains(ts, p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], ti, ts / ti if ti > 0.0 else 0.0,
+                 p[P_LAW] > 0.5, int(p[P_LAW_NA]), int(p[P_LAW_NC]), int(p[P_LAW_NR]))
+
+
 def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.ndarray,
                  ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray, noise: np.ndarray,
                  x_true: np.ndarray, x_meas: np.ndarray, force: np.ndarray,
@@ -120,38 +147,42 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     and parallel drivers, inlined into each caller.
     """
     p = P[n]
-    advance_axis_with(PL.constants(p), p, n, S, xr, vr, ar, u_force, u_off, noise, x_true,
-                      x_meas, force, friction, status)
+    advance_axis_with(PL.constants(p), gains(p), p, n, S, xr, vr, ar, u_force, u_off, noise,
+                      x_true, x_meas, force, friction, status)
 
 
-def advance_axis_with(c: PL.Plant, p: np.ndarray, n: int, S: np.ndarray, xr: np.ndarray,
-                      vr: np.ndarray, ar: np.ndarray, u_force: np.ndarray, u_off: np.ndarray,
-                      noise: np.ndarray, x_true: np.ndarray, x_meas: np.ndarray,
-                      force: np.ndarray, friction: np.ndarray, status: np.ndarray) -> None:
+def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarray,
+                      xr: np.ndarray, vr: np.ndarray, ar: np.ndarray, u_force: np.ndarray,
+                      u_off: np.ndarray, noise: np.ndarray, x_true: np.ndarray,
+                      x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
+                      status: np.ndarray) -> None:
     """:func:`advance_axis` with axis ``n``'s parameter row ``p`` (``P[n]``, or a row equal
-    to it) and its plant constants ``c`` already unpacked (:func:`fricbench.axis.plant.constants`,
-    or a row of :func:`fricbench.axis.plant.constants_table`).
+    to it), its plant constants ``c`` (:func:`fricbench.axis.plant.constants`) and its gains
+    ``g`` (:func:`gains`) already unpacked.
 
     The fused vector-env step advances each axis by one sample per call; unpacking its plant
     row (divisions, branches) at every call would cost a third of the sample, so it passes
     constants unpacked once per parameter change. When every axis holds the same row it passes
-    that one row for all, so that what is computed from the row alone (the integrator's
-    ``Ts / Ti``, the reciprocal of ``Ts``) is computed once per step, not once per axis.
+    that one row's constants and gains for all: they are then scalars the compiler keeps out
+    of the loop over the axes (``Ts / Ti`` and the reciprocals of ``Ts`` and ``Kt`` computed
+    once per step, no gain read from the row per axis), which array reads from the row, that
+    the compiler cannot prove the state writes leave alone, are not. The row itself is read
+    by the linear law only.
     """
     n_samples = xr.shape[1]
     s = S[n]
     # parameters and state live in locals over the whole run: the inner loop touches no
     # arrays but the inputs and outputs
-    ts = p[P_TS]
+    ts = g.ts
     m, kt = c.m, c.kt
-    kp, kvff, kaff, kv, ti = p[P_KP], p[P_KVFF], p[P_KAFF], p[P_KV], p[P_TI]
-    ki = ts / ti if ti > 0.0 else 0.0
+    kp, kvff, kaff, kv = g.kp, g.kvff, g.kaff, g.kv
+    ki = g.ki
     x, v, x_play, z, d, dv = s[S_X], s[S_V], s[S_XPLAY], s[S_Z], s[S_DEF], s[S_DEFV]
     theta = s[S_HEAT]
     integ, x_fb, x_fb_prev, t = s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T]
     x_logged, off_prev, i_app = s[S_XMEAS], s[S_OFF_PREV], s[S_IAPP]
-    law = p[P_LAW] > 0.5
-    na, nc, nr = int(p[P_LAW_NA]), int(p[P_LAW_NC]), int(p[P_LAW_NR])
+    law = g.law
+    na, nc, nr = g.na, g.nc, g.nr
     for k in range(n_samples):
         x_true[n, k] = x_play + d
         x_meas[n, k] = x_logged
@@ -229,6 +260,7 @@ def advance_axis_with(c: PL.Plant, p: np.ndarray, n: int, S: np.ndarray, xr: np.
 
 # fast-math as in the plant (FASTMATH): rounding-level changes only, divergence checks kept
 _measure = numba.njit(cache=True)(_measure)
+gains = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(gains)
 advance_axis_with = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance_axis_with)
 advance_axis = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance_axis)
 
@@ -335,6 +367,8 @@ __all__ = [
     "STATUS_RUNAWAY",
     "advance_axis",
     "advance_axis_with",
+    "Gains",
+    "gains",
     "initial_state",
     "run_kernel",
 ]

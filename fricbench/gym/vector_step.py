@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from fricbench.axis import plant as PL
-from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis, advance_axis_with
+from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis, advance_axis_with, gains
 from fricbench.gym.task import observe_row
 
 __all__ = ["vector_step"]
@@ -89,10 +89,13 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
     first_bad = 0
     # unpacking a plant row (divisions, branches) costs a third of a sample: done once when
     # the rows share one plant, else per row as the kernel's drivers do; the shared row also
-    # stands for every sub-env's in the gains and the observation, so what is computed from it
-    # alone (Ts / Ti, 1 / Ts) is computed once per step and no other row is read
+    # stands for every sub-env's in the gains and the observation, and its gains are unpacked
+    # into scalars here (not read from the row by each sub-env: the compiler cannot move an
+    # array read past the state writes), so that Ts / Ti and the reciprocals of Ts and Kt are
+    # computed once per step
     p0 = P[0]
     c = PL.constants(p0)
+    g = gains(p0)
     for n in range(n_env):
         i = ref_id[n]
         if hold[n]:
@@ -111,7 +114,7 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
                 u_off[n, 0] = a * action_scale
             noise[n, 0] = draws[n]
             if shared:
-                advance_axis_with(c, p0, n, S, xr, vr, ar, u_force, u_off, noise, x_true,
+                advance_axis_with(c, g, p0, n, S, xr, vr, ar, u_force, u_off, noise, x_true,
                                   x_meas, force, friction, status)
             else:
                 advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas,
