@@ -147,11 +147,11 @@ def advance_axis(n: int, P: np.ndarray, S: np.ndarray, xr: np.ndarray, vr: np.nd
     and parallel drivers, inlined into each caller.
     """
     p = P[n]
-    advance_axis_with(PL.constants(p), gains(p), p, n, S, xr, vr, ar, u_force, u_off, noise,
-                      x_true, x_meas, force, friction, status)
+    advance_axis_with(PL.constants(p), gains(p), p, n, n, S, xr, vr, ar, u_force, u_off,
+                      noise, x_true, x_meas, force, friction, status)
 
 
-def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarray,
+def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, r: int, S: np.ndarray,
                       xr: np.ndarray, vr: np.ndarray, ar: np.ndarray, u_force: np.ndarray,
                       u_off: np.ndarray, noise: np.ndarray, x_true: np.ndarray,
                       x_meas: np.ndarray, force: np.ndarray, friction: np.ndarray,
@@ -184,16 +184,16 @@ def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarra
     law = g.law
     na, nc, nr = g.na, g.nc, g.nr
     for k in range(n_samples):
-        x_true[n, k] = x_play + d
-        x_meas[n, k] = x_logged
+        x_true[r, k] = x_play + d
+        x_meas[r, k] = x_logged
         # -- controller ----------------------------------------------------------------
-        off = u_off[n, k]
+        off = u_off[r, k]
         if law:
             # the offset enters as a reference change, its rate as a reference velocity
             v_off = (off - off_prev) / ts
             off_prev = off
-            x_ref = xr[n, k] + off
-            v_ref = vr[n, k] + v_off
+            x_ref = xr[r, k] + off
+            v_ref = vr[r, k] + v_off
             if s[S_LAW_READY] == 0.0:
                 # the reference before the first sample: extended at constant velocity
                 for q in range(nr):
@@ -201,7 +201,7 @@ def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarra
                 s[S_LAW_READY] = 1.0
             # u = sum_i a_i u[k-i] + k_x x_r + k_v v_r + k_a a_r + sum_m g_m x_r[k-m]
             #     + sum_j c_j y_fb[k-j]
-            u_law = (p[P_LAW_KX] * x_ref + p[P_LAW_KV] * v_ref + p[P_LAW_KA] * ar[n, k]
+            u_law = (p[P_LAW_KX] * x_ref + p[P_LAW_KV] * v_ref + p[P_LAW_KA] * ar[r, k]
                      + p[P_LAW_C] * x_fb)
             for q in range(nr):
                 u_law += p[P_LAW_G + q] * s[S_LAW_R + q]
@@ -221,16 +221,16 @@ def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarra
             for q in range(nr - 1, 0, -1):
                 s[S_LAW_R + q] = s[S_LAW_R + q - 1]
             s[S_LAW_R] = x_ref
-            i_cmd = u_law + u_force[n, k] / kt
+            i_cmd = u_law + u_force[r, k] / kt
             i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
         else:
             # v_cmd = Kp (x_r - x_fb) + kvff v_r   (the offset's rate enters the feedforward);
             # written as before the linear law existed: fast-math may reorder another form
-            v_cmd = kp * (xr[n, k] + off - x_fb) + kvff * (vr[n, k] + (off - off_prev) / ts)
+            v_cmd = kp * (xr[r, k] + off - x_fb) + kvff * (vr[r, k] + (off - off_prev) / ts)
             off_prev = off
             e_v = v_cmd - (x_fb - x_fb_prev) / ts
             # i = Kv (e_v + I) + (kaff M a_r + u) / Kt
-            i_cmd = kv * (e_v + integ) + (kaff * m * ar[n, k] + u_force[n, k]) / kt
+            i_cmd = kv * (e_v + integ) + (kaff * m * ar[r, k] + u_force[r, k]) / kt
             # -- plant: actuator --------------------------------------------------------
             i_app, clipped = PL.actuate(c, s, S_DBUF, i_cmd)
             # clamping anti-windup: freeze I while the output saturates in the direction of e_v
@@ -241,8 +241,8 @@ def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarra
         x, v, z, x_play, d, dv, theta, f_fric = PL.advance(c, x, v, z, x_play, d, dv, theta,
                                                            f_motor)
         t += ts
-        force[n, k] = f_motor
-        friction[n, k] = f_fric
+        force[r, k] = f_motor
+        friction[r, k] = f_fric
         if not (math.isfinite(v) and math.isfinite(x) and math.isfinite(integ)):
             status[n] = STATUS_NONFINITE
             break
@@ -251,7 +251,7 @@ def advance_axis_with(c: PL.Plant, g: Gains, p: np.ndarray, n: int, S: np.ndarra
             break
         # -- plant: sensor reading for the next sample -----------------------------------
         x_fb_prev = x_fb
-        x_fb, x_logged = PL.sense(c, x, x_play, d, theta, t, c.noise * noise[n, k])
+        x_fb, x_logged = PL.sense(c, x, x_play, d, theta, t, c.noise * noise[r, k])
     s[S_X], s[S_V], s[S_XPLAY], s[S_Z], s[S_DEF], s[S_DEFV] = x, v, x_play, z, d, dv
     s[S_HEAT] = theta
     s[S_I], s[S_XFB], s[S_XFB_PREV], s[S_T] = integ, x_fb, x_fb_prev, t

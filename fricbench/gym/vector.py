@@ -39,12 +39,13 @@ its own when friction is redrawn per episode)."""
 def bytes_per_env(n_features: int, randomized: bool) -> int:
     """Estimated peak bytes per sub-env of :class:`ServoAxisVectorEnv` (within about 30 %).
 
-    The batch's parameter and state rows, status and outputs; the env's indices, observation,
-    kernel scratch; the copies made at reset and the arrays returned by a step; one
+    The batch's parameter and state rows, status and outputs; the env's indices, observation;
+    the copies made at reset and the arrays returned by a step (the kernel's scratch is one
+    sub-env's, whatever their number); one
     :class:`~fricbench.axis.Axis` per sub-env when friction is randomised.
     """
     batch = 8 * (K.N_PARAMS + K.N_STATE + 1 + 4 + 1)
-    env = 8 * (3 + n_features + 10 + 1) + 1
+    env = 8 * (3 + n_features + 1) + 1
     transient = 8 * (K.N_PARAMS + K.N_STATE + 6) + 2 * 4 * n_features + 2
     return batch + env + transient + (AXIS_OBJECT_BYTES if randomized else 0)
 
@@ -165,7 +166,7 @@ class ServoAxisVectorEnv(VectorEnv):
         self._prev_action = np.zeros(n)
         self._obs = np.zeros((n, self._nf))
         self._autoreset = np.zeros(n, dtype=bool)
-        self._work = np.zeros((10, n, 1))
+        self._work = np.zeros((10, 1, 1))
         self._no_noise = np.zeros(n)
         # one generator for every draw; Gymnasium's ``np_random`` property shows the same one
         self._rng = self._np_random = np.random.default_rng(seed)

@@ -1,8 +1,8 @@
 """One compiled call per vector-env step: action check, reference look-up, the axis kernel,
 observation, reward and truncation for every sub-env.
 
-The physics is the kernel's own per-axis body (:func:`fricbench.axis.kernel.advance_axis`, or
-:func:`~fricbench.axis.kernel.advance_axis_with` when the rows share one plant) and
+The physics is the kernel's own per-axis body (:func:`fricbench.axis.kernel.advance_axis_with`,
+with the plant constants and gains of each row, or of the one row every sub-env shares) and
 the observation is :func:`fricbench.gym.task.observe_row`; this module only fuses the per-step
 glue around them, which in numpy cost as much as the physics at 4096 envs (a dozen passes over
 the batch and their temporaries).
@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from fricbench.axis import plant as PL
-from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis, advance_axis_with, gains
+from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis_with, gains
 from fricbench.gym.task import observe_row
 
 __all__ = ["vector_step"]
@@ -63,8 +63,9 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         ``r = -(e / reward_error_scale)^2 - action_weight a^2`` with ``e`` the measured error.
     prev_action : ndarray, shape (N,)
         Updated with the applied (clipped) action.
-    work : ndarray, shape (10, N, 1)
-        Scratch rows for the kernel's inputs and outputs.
+    work : ndarray, shape (10, 1, 1)
+        Scratch for the kernel's inputs and outputs, one sub-env at a time (a row per sub-env
+        would be ten more arrays streamed through the cache at every step).
     status : ndarray of int64, shape (N,)
         Kernel status; non-zero for an axis whose state diverged.
     obs : ndarray of float32, shape (N, n_features)
@@ -103,22 +104,24 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         else:
             a = min(1.0, max(-1.0, action[n]))
             kk = k[n]
-            xr[n, 0] = X[i, kk]
-            vr[n, 0] = V[i, kk]
-            ar[n, 0] = A[i, kk]
+            # the kernel's inputs and outputs for this sub-env: one scratch row (0) for all
+            xr[0, 0] = X[i, kk]
+            vr[0, 0] = V[i, kk]
+            ar[0, 0] = A[i, kk]
             if force_action:
-                u_force[n, 0] = a * action_scale
-                u_off[n, 0] = 0.0
+                u_force[0, 0] = a * action_scale
+                u_off[0, 0] = 0.0
             else:
-                u_force[n, 0] = 0.0
-                u_off[n, 0] = a * action_scale
-            noise[n, 0] = draws[n]
+                u_force[0, 0] = 0.0
+                u_off[0, 0] = a * action_scale
+            noise[0, 0] = draws[n]
             if shared:
-                advance_axis_with(c, g, p0, n, S, xr, vr, ar, u_force, u_off, noise, x_true,
+                advance_axis_with(c, g, p0, n, 0, S, xr, vr, ar, u_force, u_off, noise, x_true,
                                   x_meas, force, friction, status)
             else:
-                advance_axis(n, P, S, xr, vr, ar, u_force, u_off, noise, x_true, x_meas,
-                             force, friction, status)
+                p = P[n]
+                advance_axis_with(PL.constants(p), gains(p), p, n, 0, S, xr, vr, ar, u_force,
+                                  u_off, noise, x_true, x_meas, force, friction, status)
             if status[n] != 0 and first_bad == 0:
                 first_bad = n + 1
             k[n] = kk + 1
