@@ -1,15 +1,18 @@
 """The vector env's step with the plant constants unpacked once per step gives, bit for bit, what
-the per-row path (the step as it was before, unpacking every row) gives."""
+the per-row path (the step as it was before, unpacking every row) gives; and each sub-env's
+rollout is, bit for bit, that of a scalar env given the same actions."""
 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
 
 from fricbench.axis.params import Effects
-from fricbench.gym import get_spec
+from fricbench.gym import ServoAxisEnv, get_spec
+from fricbench.gym.task import Randomization, TaskConfig, TrajectoryChoice
 from fricbench.gym.vector import ServoAxisVectorEnv
 
 
@@ -81,3 +84,70 @@ def test_a_plant_set_per_row_is_stepped_per_row() -> None:
     # and row 0 is not (the light axis moves differently)
     assert any(x.ndim >= 1 and x.shape[0] == 2 and not np.array_equal(x[0], y[0])
                for x, y in zip(a, b, strict=True))
+
+
+def _scalar_case(case: str) -> tuple[Any, TaskConfig]:
+    """The axis and task of ``case`` on a short fixed reference, friction not redrawn."""
+    spec = get_spec("fricbench/PaperAxis-v0" if case == "effects" else case)
+    axis, task = spec.axis, spec.task
+    if case == "effects":
+        # every effect but the measurement noise: the scalar envs draw theirs from generators
+        # of their own, the vector env from one for all sub-envs
+        axis = replace(_effects_axis(), effects=replace(_effects_axis().effects, noise_std=0.0))
+        task = replace(task, action="offset", action_scale=1e-5)
+    duration = 60 * axis.controller.ts
+    return axis, replace(task, randomize=Randomization(), trajectories=(
+        TrajectoryChoice("random", {"duration": duration, "seed": 7}),))
+
+
+@pytest.mark.parametrize("mode", ["NextStep", "SameStep"])
+@pytest.mark.parametrize("case", ["fricbench/PaperAxis-v0", "fricbench/LuGreAxis-v0",
+                                  "fricbench/EMPS-v0", "fricbench/DCMotor-v0",
+                                  "fricbench/RandomFriction-v0", "effects"])
+def test_vector_rollout_equals_the_scalar_envs_bit_for_bit(case: str, mode: str) -> None:
+    """Sub-env ``i`` of the vector env and a scalar env given the same actions give the same
+    observations, truncations and final observations, bit for bit, and the same rewards to
+    rounding, over three episodes and the autoresets between them (Gymnasium's next-step and
+    same-step modes)."""
+    axis, task = _scalar_case(case)
+    n = 4
+    venv = ServoAxisVectorEnv(num_envs=n, axis=axis, task=task, reference_pool=1, seed=0,
+                              autoreset_mode=mode)
+    envs = [ServoAxisEnv(axis=axis, task=task) for _ in range(n)]
+    vobs, _ = venv.reset(seed=1)
+    sobs = np.stack([env.reset(seed=i)[0] for i, env in enumerate(envs)])
+    assert vobs.dtype == sobs.dtype == np.float32 and np.array_equal(vobs, sobs)
+    rng = np.random.default_rng(2)
+    pending = np.zeros(n, dtype=bool)  # next-step mode: the scalar env resets on this step
+    truncations, apart = 0, False
+    for t in range(3 * 61):
+        # out-of-range actions too (clipping), float32 and float64 alternately
+        a = rng.uniform(-1.5, 1.5, (n, 1))
+        a = a.astype(np.float32) if t % 2 else a
+        vobs, vrew, vterm, vtrunc, vinfo = venv.step(a)
+        for i, env in enumerate(envs):
+            if pending[i]:
+                sobs[i] = env.reset()[0]
+                rew, trunc = 0.0, False
+                pending[i] = False
+            else:
+                sobs[i], r, term, trunc, _ = env.step(a[i])
+                rew = float(r)
+                assert not term
+                if trunc and mode == "SameStep":
+                    assert np.array_equal(vinfo["final_obs"][i], sobs[i])
+                    sobs[i] = env.reset()[0]
+                elif trunc:
+                    pending[i] = True
+            # the reward to rounding, not bit for bit: the scalar env scores
+            # -(e e_s / r_s)^2 - w a^2 in Python, the compiled step -(e (e_s / r_s))^2 - w a^2
+            # with fused multiply-adds (as since the fused step was written; making it the
+            # scalar env's would move the rewards PPO trains the rl compensators on)
+            np.testing.assert_allclose(vrew[i], rew, rtol=1e-14, atol=0.0)
+            assert vtrunc[i] == trunc and not vterm[i]
+            truncations += int(trunc)
+        assert np.array_equal(vobs, sobs), f"step {t}"
+        apart = apart or len({row.tobytes() for row in vobs}) == n
+    assert truncations >= 2 * n
+    # the sub-envs moved apart (different actions): not one trajectory compared four times
+    assert apart
