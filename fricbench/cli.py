@@ -478,8 +478,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "perf", help="measure simulation speed on this machine",
         description="Measure simulation speed (steps or samples per second) of the env, the "
-                    "vector env and simulate, beside Gymnasium's Pendulum-v1 and "
-                    "python-control measured in the same run for comparison, and PPO "
+                    "vector env (beside the bare kernel run over the same samples) and "
+                    "simulate, beside Gymnasium's Pendulum-v1 and python-control measured in "
+                    "the same run for comparison, and PPO "
                     "training speed on the vector env beside stable-baselines3's DummyVecEnv.")
     p.add_argument("--json", metavar="FILE.json", help="write the figures to this JSON file")
     p.add_argument("--quick", action="store_true", help="shorter runs (noisier)")

@@ -159,6 +159,7 @@ def test_perf_writes_exactly_the_keys(tmp_path: Path) -> None:
     assert main(["perf", "--quick", "--json", str(out)]) == 0
     data = json.loads(out.read_text())
     assert set(data) == {"env_steps_per_s", "pendulum_steps_per_s", "vector_env_steps_per_s",
+                         "kernel_samples_per_s", "vector_env_to_kernel",
                          "simulate_samples_per_s", "python_control_samples_per_s",
                          "train_steps_per_s", "train_dummy_steps_per_s", "rollout_steps_per_s",
                          "rollout_dummy_steps_per_s", "vector_env_to_simulate"}
