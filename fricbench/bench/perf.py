@@ -59,14 +59,16 @@ def _vector_rate(num_envs: int, warmup: int, steps: int, repeats: int
     """Steps/s of the native vector env, samples/s of the bare kernel over the same work, and
     the env's peak traced memory in MB.
 
-    Each repeat resets the env (``seed=0``), steps it ``warmup`` times untimed (the first
-    samples of the references start from rest, where a stuck axis costs the kernel half of
-    what a moving one does; past them the motion is that of an episode), then times ``steps``
-    steps of zero actions. The kernel (:meth:`fricbench.axis.AxisBatch.run`, what ``simulate``
-    and the benchmark runner call) is then timed from the same ``num_envs`` states over the
-    same reference samples in one call: the same plant, the same batch, the same samples, so
-    the ratio is what the env adds (a call per sample, actions, observations, rewards). The
-    kernel's final states must equal the env's, or the comparison is refused.
+    The env is reset (``seed=0``) and stepped ``warmup`` times untimed (the first samples of
+    the references start from rest, where a stuck axis costs the kernel half of what a moving
+    one does; past them the motion is that of an episode). Then, ``repeats`` times, ``steps``
+    steps of zero actions are timed, and the kernel (:meth:`fricbench.axis.AxisBatch.run`,
+    what ``simulate`` and the benchmark runner call) right after them, from the same
+    ``num_envs`` states over the same reference samples in one call: the same plant, the same
+    batch, the same samples, so the ratio is what the env adds (a call per sample, actions,
+    observations, rewards). Each rate is the best of its repeats; the two alternate, so that a
+    busy spell of a shared machine slows both. The kernel's final states must equal the env's,
+    or the comparison is refused.
 
     Memory is traced in a separate short pass: tracemalloc hooks every numpy allocation and
     would slow the timed loop.
@@ -92,23 +94,30 @@ def _vector_rate(num_envs: int, warmup: int, steps: int, repeats: int
     venv.close()
     venv, zero = build()
     env = venv.unwrapped
+    # every sub-env stays within its episode (no autoreset inside the timed steps): an episode
+    # of L samples truncates at its step L - 1
+    samples = warmup + repeats * steps
+    shortest = int(env._len.min()) - 1
+    if samples > shortest:
+        raise ValueError(f"warmup + repeats * steps = {samples} steps: expected at most "
+                         f"{shortest} (the env's shortest episode)")
+    venv.reset(seed=0)
+    for _ in range(warmup):
+        venv.step(zero)
+    batch = AxisBatch(env.axis, n=num_envs)
     rate, kernel = 0.0, 0.0
     for _ in range(repeats):
-        venv.reset(seed=0)
-        for _ in range(warmup):
-            venv.step(zero)
-        start = env._batch.S.copy()
+        batch.S[:] = env._batch.S
         cols = env._k[:, None] + np.arange(steps)
         rows = env._ref_id[:, None]
-        refs = [np.ascontiguousarray(table[rows, cols]) for table in (env._X, env._V, env._A)]
+        xr, vr, ar = (np.ascontiguousarray(table[rows, cols])
+                      for table in (env._X, env._V, env._A))
         t0 = time.perf_counter()
         for _ in range(steps):
             venv.step(zero)
         rate = max(rate, steps * num_envs / (time.perf_counter() - t0))
-        batch = AxisBatch(env.axis, n=num_envs)
-        batch.S[:] = start
         t0 = time.perf_counter()
-        batch.run(*refs)
+        batch.run(xr, vr, ar)
         kernel = max(kernel, steps * num_envs / (time.perf_counter() - t0))
         if not np.array_equal(batch.S, env._batch.S):
             raise RuntimeError("perf: the kernel's run did not reproduce the vector env's "
@@ -227,8 +236,8 @@ def measure_performance(quick: bool = False, log: Callable[[str], None] = print
     log("perf: fricbench/PaperAxis-v0 through gymnasium.make ...")
     env = _env_rate("fricbench/PaperAxis-v0", steps, repeats)
     log("perf: native vector env, 4096 envs, and the kernel on the same samples ...")
-    vec, kernel, peak_mb = _vector_rate(4096, 500 if quick else 1000, 50 if quick else 200,
-                                        repeats)
+    vec, kernel, peak_mb = _vector_rate(4096, 500 if quick else 1000, 50 if quick else 100,
+                                        4 if quick else 10)
     log("perf: simulate (reversal_sine, default axis) ...")
     sim = _simulate_rate(3 if quick else 5)
     log("perf: python-control input_output_response ...")

@@ -4,6 +4,8 @@ kernel it times runs the vector env's own samples."""
 
 from __future__ import annotations
 
+import pytest
+
 from fricbench.bench.perf import PERF_KEYS, _vector_rate, format_report
 
 
@@ -36,5 +38,15 @@ def test_every_target_says_met_or_missed() -> None:
 def test_the_kernel_is_timed_on_the_vector_envs_own_samples() -> None:
     """The kernel's rate comes from the same states and samples as the env's (the measurement
     checks the final states agree, else raises), at a small size."""
-    vec, kernel, peak_mb = _vector_rate(16, warmup=30, steps=20, repeats=1)
+    vec, kernel, peak_mb = _vector_rate(16, warmup=30, steps=20, repeats=2)
     assert vec > 0.0 and kernel > 0.0 and peak_mb > 0.0
+
+
+def test_a_window_past_the_shortest_episode_is_refused() -> None:
+    # PaperAxis-v0's shortest reference, s_curve, has 2541 samples: 2540 steps, the last
+    # truncating; a window of 2540 steps is measured, one of 2541 refused
+    with pytest.raises(ValueError, match=r"warmup \+ repeats \* steps = 2541 steps: expected "
+                                         r"at most 2540"):
+        _vector_rate(2, warmup=41, steps=500, repeats=5)
+    vec, kernel, _ = _vector_rate(2, warmup=40, steps=500, repeats=5)
+    assert vec > 0.0 and kernel > 0.0
