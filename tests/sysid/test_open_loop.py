@@ -55,6 +55,30 @@ def _simulate_axis(u: np.ndarray, m: float, b: float, fc: float, f0: float,
     return out
 
 
+def _simulate_stribeck_axis(u: np.ndarray, m: float, b: float, fc: float, fs: float,
+                            vs: float, f0: float, n_sub: int = 10) -> np.ndarray:
+    """M dv/dt = u - B v - sgn(v) (fc + (fs - fc) exp(-(v / vs)^2)) - f0: sticks exactly
+    (up to fs); while sliding the level is taken at the substep's starting speed."""
+    h = TS / n_sub
+    x = v = 0.0
+    out = np.empty(u.size)
+    for k in range(u.size):
+        out[k] = x
+        for _ in range(n_sub):
+            den = m + h * b
+            v_star = (m * v + h * (u[k] - f0)) / den
+            if abs(v_star) <= h * fs / den:
+                v_new = 0.0
+            else:
+                level = fc + (fs - fc) * np.exp(-((v / vs) ** 2))
+                v_new = v_star - np.sign(v_star) * h * level / den
+                if v_new * v_star < 0.0:
+                    v_new = 0.0
+            x += 0.5 * h * (v + v_new)
+            v = v_new
+    return out
+
+
 def _draw(seed: int) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     par = {"m": float(rng.uniform(2.0, 8.0)), "b": float(rng.uniform(20.0, 80.0)),
@@ -207,3 +231,33 @@ def test_search_reports_the_parameters_standard_deviations() -> None:
         else:
             assert isinstance(spread, float) and 0.0 < spread < 0.05 * abs(value)
     assert fit.not_detected == []
+
+
+def test_stribeck_friction_found_open_loop() -> None:
+    # an effort-driven axis with Stribeck friction (parameters drawn here): the one search
+    # adds it first (its velocity fitted from starts at shares of the top speed), the held-out
+    # error falls many times, and its sizes come back
+    from fricbench.sysid.diagnose.open_loop import search_open_loop
+
+    rng = np.random.default_rng(0)
+    m, b = float(rng.uniform(2.0, 8.0)), float(rng.uniform(20.0, 80.0))
+    fc, f0 = float(rng.uniform(3.0, 10.0)), float(rng.uniform(-1.0, 1.0))
+    fs = fc * float(rng.uniform(1.5, 2.5))
+    u = _multisine(10000, rng, amp=4.0 * fc, period_s=2.0)
+    v_max = float(np.max(np.abs(np.gradient(_simulate_axis(u, m, b, fc, f0), TS))))
+    vs = float(rng.uniform(0.05, 0.15)) * v_max
+    y = _simulate_stribeck_axis(u, m, b, fc, fs, vs, f0)
+    y = y + 1e-7 * rng.standard_normal(y.size)
+    fit = search_open_loop(u, y, TS, max_effects=1)
+    assert fit.model.effects == (*BASE_EFFECTS, "stribeck_friction")
+    base = fit.heldout["+".join(BASE_EFFECTS)]
+    with_it = fit.heldout["+".join(fit.model.effects)]
+    print(f"held-out {1e3 * base:.4g} -> {1e3 * with_it:.4g} mm; true fc {fc:.4g}, fs-fc "
+          f"{fs - fc:.4g}, vs {vs:.4g}; fitted {fit.model.describe('N')}")
+    assert with_it < 0.3 * base
+    assert fit.not_detected == []
+    got = fit.model.describe("N")
+    assert got["coulomb_friction"]["fc_N"] == pytest.approx(fc, rel=0.05)
+    assert got["stribeck_friction"]["fs_minus_fc_N"] == pytest.approx(fs - fc, rel=0.1)
+    assert got["stribeck_friction"]["vs_m_s"] == pytest.approx(vs, rel=0.1)
+    assert fit.train_rms < 1e-3 * np.ptp(y)

@@ -12,9 +12,10 @@ Model (plant row of :mod:`fricbench.axis.plant`, forces in the effort's unit)::
 
     M dv/dt = u - B v - F_eff(x, v)      always M, B; effects from the registry add F_eff terms
 
-The effects are those of :mod:`fricbench.sysid.diagnose.effects` (their plant entries); their
-shape parameters (a Stribeck velocity, a period) are fixed here at values set from the run's
-scales, since only sizes are fitted open loop.
+The effects are those of :mod:`fricbench.sysid.diagnose.effects` (their plant entries, as
+many as each frees beside the others); a period is fixed here at a value set from the run's
+scales, while the shapes of the effects in :data:`DATA_SHAPED` (a resonance, a Stribeck
+velocity) are fitted with their sizes, from starts each effect finds in the run.
 """
 
 from __future__ import annotations
@@ -34,12 +35,14 @@ from fricbench.axis import plant as PL
 from fricbench.axis.open_loop import initial_state, simulate_open_loop
 from fricbench.run_events import motion_sign
 from fricbench.sysid.diagnose.criterion import (
+    UNIDENTIFIED,
     described_sd,
     effective_samples,
     parameter_covariance,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
+from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
 from fricbench.sysid.diagnose.parameters import BOUND_TOLERANCE
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings
@@ -58,9 +61,9 @@ CANDIDATE_EFFECTS: tuple[str, ...] = ("asymmetric_friction", "stribeck_friction"
                                       "position_dependent_friction", "cogging", "compliance")
 """Effects the forward search tries, in this order."""
 
-DATA_SHAPED: tuple[str, ...] = ("compliance",)
-"""Effects whose shape (a resonance and its damping) is fitted too, from starts found in the
-frequency response (:meth:`Effect.open_loop_starts`)."""
+DATA_SHAPED: tuple[str, ...] = ("compliance", "stribeck_friction")
+"""Effects whose shape (a resonance and its damping, a Stribeck velocity) is fitted too, from
+starts found in the data (:meth:`Effect.open_loop_starts`)."""
 
 N_DATA_STARTS = 2
 """Starts from the data kept (the best by free-run error) for an effect in ``DATA_SHAPED``."""
@@ -84,13 +87,19 @@ class OpenLoopModel:
     effects: tuple[str, ...]
 
     def free(self) -> tuple[int, ...]:
-        """Plant entries fitted: mass, damping and the sizes of the effects."""
+        """Plant entries fitted: mass, damping and the sizes of the effects.
+
+        An effect's entries are those it declares free beside the model's other effects
+        (:meth:`Effect.free`, as in the closed loop: a direction-dependent Coulomb level is the
+        force offset's twin while the axis moves, so with the offset in only the viscous
+        asymmetry is fitted)."""
         idx = [PL.M, PL.B]
         for name in self.effects:
             eff = get_effect(name)
-            # shapes found in the data (a resonance) are fitted; others stay at their scales
+            # shapes found in the data (a resonance, a Stribeck velocity) are fitted; others
+            # stay at their scales
             shaped = name in DATA_SHAPED
-            idx += [i for i in eff.parameters if shaped or i not in eff.shape_parameters]
+            idx += [i for i in eff.free(self.effects) if shaped or i not in eff.shape_parameters]
         return tuple(dict.fromkeys(idx))
 
     def describe(self, force_unit: str = "N") -> dict[str, object]:
@@ -160,9 +169,7 @@ def _scales(effort: np.ndarray, y: np.ndarray, ts: float) -> dict[str, float]:
 def _switch_on(p: np.ndarray, name: str, sc: dict[str, float]) -> np.ndarray:
     """Fix an effect's shape parameters from the run's scales (sizes stay as they are)."""
     q = p.copy()
-    if name == "stribeck_friction":
-        q[PL.VS] = 0.1 * sc["v_max"]
-    elif name == "position_dependent_friction":
+    if name == "position_dependent_friction":
         q[PL.PD_PERIOD] = 2.0 * sc["stroke"]
         q[PL.PD_CENTER] = sc["center"]
     elif name == "cogging":
@@ -178,6 +185,8 @@ def _param_scale(i: int, value: float, sc: dict[str, float]) -> float:
         return max(0.1 * abs(value), 1e-3)
     if i == PL.COMP_ZETA:
         return 0.05
+    if i == PL.VS:
+        return 0.1 * sc["v_max"]
     if i == PL.M:
         return max(0.1 * abs(value), 1e-12)
     if i in (PL.B, PL.DB):
@@ -189,7 +198,9 @@ def _param_scale(i: int, value: float, sc: dict[str, float]) -> float:
     return 0.05 * sc["force"]
 
 
-def _bounds(i: int, ts: float) -> tuple[float, float]:
+def _bounds(i: int, ts: float, sc: dict[str, float]) -> tuple[float, float]:
+    if i == PL.VS:
+        return vs_range(sc["v_max"])
     if i == PL.COMP_RATIO:
         return 1e-3, 0.95
     if i == PL.COMP_FREQ:
@@ -214,11 +225,22 @@ def _idim_start(effort: np.ndarray, y: np.ndarray, ts: float, effects: Sequence[
     v = np.gradient(yf, ts)
     acc = np.gradient(v, ts)
     sgn = motion_sign(v, 0.02 * sc["v_max"])
-    cols = [acc, v, sgn, np.ones_like(v)]
-    idx = [PL.M, PL.B, PL.FC, PL.OFFSET]
+    cols = [acc, v]
+    idx = [PL.M, PL.B]
+    if "coulomb_friction" in effects:
+        cols.append(sgn)
+        idx.append(PL.FC)
+    if "force_offset" in effects:
+        cols.append(np.ones_like(v))
+        idx.append(PL.OFFSET)
     if "asymmetric_friction" in effects:
-        cols += [0.5 * np.abs(sgn), 0.5 * np.abs(v)]
-        idx += [PL.DFC, PL.DB]
+        # its free entries beside the others (the Coulomb asymmetry is the offset's twin)
+        free = get_effect("asymmetric_friction").free(effects)
+        if PL.DFC in free:
+            cols.append(0.5 * np.abs(sgn))
+            idx.append(PL.DFC)
+        cols.append(0.5 * np.abs(v))
+        idx.append(PL.DB)
     X = np.column_stack(cols)
     # u = M a + B v + fc sgn(v) + f0 [+ dfc/2 |sgn v| + dB/2 |v|]; a light ridge keeps dfc and f0
     # (the same force while moving) apart
@@ -263,6 +285,8 @@ class _Fit:
     idx: list[int]
     jac: np.ndarray = field(repr=False)
     residual: np.ndarray = field(repr=False)
+    scale: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    on_bound: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
 
 
 def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
@@ -271,8 +295,8 @@ def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
     idx = list(model.free())
     p0 = model.plant.copy()
     scale = np.array([_param_scale(i, p0[i], sc) for i in idx])
-    lo = np.array([_bounds(i, ts)[0] for i in idx]) / scale
-    hi = np.array([_bounds(i, ts)[1] for i in idx]) / scale
+    lo = np.array([_bounds(i, ts, sc)[0] for i in idx]) / scale
+    hi = np.array([_bounds(i, ts, sc)[1] for i in idx]) / scale
     z0 = np.clip(p0[idx] / scale, lo + 1e-9, hi - 1e-9)
 
     def rows(Z: np.ndarray) -> np.ndarray:
@@ -295,7 +319,8 @@ def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
     p[idx] = res.x * scale
     # dr/dp = dr/dz / scale: the Jacobian in the plant row's own units
     return _Fit(OpenLoopModel(p, model.effects), float(np.sqrt(np.mean(res.fun ** 2))), idx,
-                np.asarray(res.jac) / scale[None, :], np.asarray(res.fun))
+                np.asarray(res.jac) / scale[None, :], np.asarray(res.fun), scale,
+                np.array([_on_bound(i, p[i], ts, sc) is not None for i in idx], dtype=bool))
 
 
 def fit_open_loop(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
@@ -329,7 +354,7 @@ def _fit_multistart(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray,
     starts = [_idim_start(effort[sel], y[sel], ts, effects, sc), *extra]
     rows = []
     for p in starts:
-        q = p.copy()
+        q = _switched_off(p, effects)
         for name in effects:
             q = _switch_on(q, name, sc)
         rows.append(q)
@@ -344,6 +369,20 @@ def _fit_multistart(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray,
     if best is None:
         raise ValueError("no start to fit the open-loop model from")
     return best
+
+
+def _switched_off(p: np.ndarray, effects: Sequence[str]) -> np.ndarray:
+    """The row with every size the model does not fit at zero: those of the library's effects
+    not in ``effects`` (an effect left out, e.g. not detected, leaves no fixed force behind)
+    and those an effect in the model does not free beside the others."""
+    q = p.copy()
+    for name in dict.fromkeys((*BASE_EFFECTS, *CANDIDATE_EFFECTS, *effects)):
+        eff = get_effect(name)
+        free = eff.free(effects) if name in effects else ()
+        for i in eff.parameters:
+            if i not in free and i not in eff.shape_parameters:
+                q[i] = 0.0
+    return q
 
 
 def _data_starts(name: str, rows: list[np.ndarray], effort: np.ndarray, y: np.ndarray,
@@ -388,24 +427,36 @@ def _heldout(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray, ts: fl
     e = np.concatenate(parts)
     sse = float(np.sum(e ** 2)) if np.all(np.isfinite(e)) else float("inf")
     k = len(OpenLoopModel(PL.default_row(1.0, 0.0, ts), effects).free())
-    return Scored(effects, sse, int(e.size), k, np.nan_to_num(e), _violation(effects, fitted,
-                                                                             ts), fitted)
+    violation = _violation(effects, fitted, ts, _scales(effort, y, ts))
+    return Scored(effects, sse, int(e.size), k, np.nan_to_num(e), violation, fitted)
 
 
-def _violation(effects: tuple[str, ...], fitted: dict[int, np.ndarray], ts: float
-               ) -> str | None:
+def _violation(effects: tuple[str, ...], fitted: dict[int, np.ndarray], ts: float,
+               sc: dict[str, float]) -> str | None:
     """The plausibility constraint a structure's block fits break: a fitted shape parameter
     (a resonance's frequency or damping) on a bound of its physical range in any block."""
     for name in effects:
         if name not in DATA_SHAPED:
             continue
         for i in get_effect(name).shape_parameters:
-            lo, hi = _bounds(i, ts)
             for p in fitted.values():
-                for edge in (lo, hi):
-                    if math.isfinite(edge) and abs(p[i] - edge) <= BOUND_TOLERANCE * max(
-                            abs(edge), abs(hi - lo) if math.isfinite(hi - lo) else 1.0):
-                        return f"{name}: a shape parameter on its bound ({edge:.4g})"
+                edge = _on_bound(i, p[i], ts, sc)
+                if edge is not None:
+                    return f"{name}: a shape parameter on its bound ({edge:.4g})"
+    return None
+
+
+def _on_bound(i: int, value: float, ts: float, sc: dict[str, float]) -> float | None:
+    """The edge of entry ``i``'s range that ``value`` ended on (within
+    :data:`~fricbench.sysid.diagnose.parameters.BOUND_TOLERANCE` of the span), or None; only
+    a range with two finite edges (a physical range: a Stribeck velocity, a resonance) has
+    edges to end on."""
+    lo, hi = _bounds(i, ts, sc)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return None
+    for edge in (lo, hi):
+        if abs(value - edge) <= BOUND_TOLERANCE * max(abs(edge), hi - lo):
+            return edge
     return None
 
 
@@ -471,10 +522,25 @@ def _sizes(name: str, idx: Sequence[int]) -> list[int]:
 
 
 def _uncertainty(fit: _Fit, settings: DiagnoseSettings) -> tuple[np.ndarray, float]:
-    """Standard deviations of the fit's free entries (in ``fit.idx`` order) and ``n_eff``."""
+    """Standard deviations of the fit's free entries (in ``fit.idx`` order) and ``n_eff``.
+
+    An entry on a bound of its range at the optimum (an active constraint, so no free
+    parameter there: a Stribeck velocity at its smallest) or one the residual does not move
+    at all (its Jacobian column, in the fit's scaled units, below ``1e-10`` of the largest, the
+    covariance's own rank cut) is held at its value: its standard deviation is that of
+    :data:`~fricbench.sysid.diagnose.criterion.UNIDENTIFIED`, and the others' covariance is
+    taken without it, so rounding along its direction leaks into none of them."""
     n_eff = effective_samples(fit.residual, settings.max_lag_share)
-    cov = parameter_covariance(fit.jac, fit.residual, n_eff)
-    return np.sqrt(np.maximum(np.diag(cov), 0.0)), n_eff
+    scale = fit.scale if fit.scale.size == fit.jac.shape[1] else np.ones(fit.jac.shape[1])
+    norms = np.sqrt(np.sum((fit.jac * scale[None, :]) ** 2, axis=0))
+    keep = norms > 1e-10 * max(float(np.max(norms, initial=0.0)), 1e-300)
+    if fit.on_bound.size == keep.size:
+        keep &= ~fit.on_bound
+    sd = np.full(fit.jac.shape[1], math.sqrt(UNIDENTIFIED))
+    if np.any(keep):
+        cov = parameter_covariance(fit.jac[:, keep], fit.residual, n_eff)
+        sd[keep] = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    return sd, n_eff
 
 
 def _least_detected(fit: _Fit, sd: np.ndarray, settings: DiagnoseSettings

@@ -72,5 +72,18 @@ class StribeckFriction(Effect):
             return np.array([p[CL.I_VS]])
         return np.geomspace(*_vs_range(idim.prep.v_max), 14)
 
+    def open_loop_starts(self, effort: np.ndarray, y: np.ndarray, ts: float
+                         ) -> list[dict[int, float]]:
+        """Stribeck velocities at the closed loop's probe shares of the run's top speed, with
+        an excess of a tenth of the effort's rms (the fit sizes it): the error surface is
+        multimodal in the velocity, so each is a start."""
+        v_max = float(np.max(np.abs(np.gradient(y, ts)))) if y.size > 1 else 0.0
+        fs = 0.1 * float(np.sqrt(np.mean(np.square(effort)))) if effort.size else 0.0
+        if not (v_max > 0.0 and fs > 0.0):
+            return []
+        lo, hi = _vs_range(v_max)
+        return [{CL.I_FS: fs, CL.I_VS: float(np.clip(frac * v_max, lo, hi))}
+                for frac in (0.01, 0.05, 0.25)]
+
     def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
         return {f"fs_minus_fc_{force_unit}": float(p[CL.I_FS]), "vs_m_s": float(p[CL.I_VS])}
