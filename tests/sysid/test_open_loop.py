@@ -38,21 +38,9 @@ def _multisine(n: int, rng: np.random.Generator, amp: float, period_s: float) ->
 
 def _simulate_axis(u: np.ndarray, m: float, b: float, fc: float, f0: float,
                    n_sub: int = 10) -> np.ndarray:
-    """M dv/dt = u - B v - fc sgn(v) - f0, implicit in the friction (sticks exactly)."""
-    h = TS / n_sub
-    x = v = 0.0
-    out = np.empty(u.size)
-    for k in range(u.size):
-        out[k] = x
-        for _ in range(n_sub):
-            # v* = (M v + h (u - f0)) / (M + h B); stick when |v*| <= h fc / (M + h B)
-            den = m + h * b
-            vs = (m * v + h * (u[k] - f0)) / den
-            step = h * fc / den
-            v_new = 0.0 if abs(vs) <= step else vs - np.sign(vs) * step
-            x += 0.5 * h * (v + v_new)
-            v = v_new
-    return out
+    """M dv/dt = u - B v - fc sgn(v) - f0, implicit in the friction (sticks exactly): the
+    Stribeck axis below without its hump (fs = fc), the same numbers."""
+    return _simulate_stribeck_axis(u, m, b, fc, fc, 1.0, f0, n_sub)
 
 
 def _simulate_stribeck_axis(u: np.ndarray, m: float, b: float, fc: float, fs: float,
@@ -65,6 +53,7 @@ def _simulate_stribeck_axis(u: np.ndarray, m: float, b: float, fc: float, fs: fl
     for k in range(u.size):
         out[k] = x
         for _ in range(n_sub):
+            # v* = (M v + h (u - f0)) / (M + h B); stick when |v*| <= h fs / (M + h B)
             den = m + h * b
             v_star = (m * v + h * (u[k] - f0)) / den
             if abs(v_star) <= h * fs / den:
