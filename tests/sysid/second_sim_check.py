@@ -158,19 +158,17 @@ def _last_line(text: str) -> str:
     return lines[-1].strip() if lines else ""
 
 
-def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
-                  extra_args: tuple[str, ...] = ()) -> Outcome:
-    """Write ``case`` as a CSV in ``workdir``, run ``fricbench diagnose`` on it in-process
-    with ``--json`` and judge the result (see :func:`judge`)."""
+def run_cli(argv: list[str], json_path: str
+            ) -> tuple[int | None, dict | None, str, str, float, str | None]:
+    """Run ``fricbench`` with ``argv`` in-process, as a user would, and read its JSON report.
+
+    Returns the exit status (None after a traceback, which goes to the captured stderr), the
+    report (None when absent or unreadable), the captured stdout and stderr, the wall time
+    and why the JSON could not be parsed (None when it could). NaN and Infinity are read
+    as numbers so that a judge can name them rather than fail the parse.
+    """
     from fricbench.cli import main
 
-    stem = os.path.join(os.fspath(workdir), f"{case.kind}-{case.seed}")
-    csv_path, json_path = stem + ".csv", stem + ".json"
-    S.write_csv(case, csv_path)
-    if os.path.exists(json_path):
-        os.remove(json_path)
-    argv = ["diagnose", *S.cli_args(case, csv_path), "--json", json_path, "--quiet",
-            *extra_args]
     out, err = io.StringIO(), io.StringIO()
     t0 = time.perf_counter()
     status: int | None
@@ -189,12 +187,26 @@ def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
         with open(json_path, encoding="utf-8") as fh:
             text = fh.read()
         try:
-            # NaN and Infinity are not JSON; keep them visible instead of failing the parse
             report = json.loads(text, parse_constant=lambda c: float(c.replace("Infinity",
                                                                                "inf")))
         except ValueError as exc:
             parse_error = str(exc)
-    outcome = Outcome(case, status, report, out.getvalue(), err.getvalue(), elapsed=elapsed)
+    return status, report, out.getvalue(), err.getvalue(), elapsed, parse_error
+
+
+def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
+                  extra_args: tuple[str, ...] = ()) -> Outcome:
+    """Write ``case`` as a CSV in ``workdir``, run ``fricbench diagnose`` on it in-process
+    with ``--json`` and judge the result (see :func:`judge`)."""
+    stem = os.path.join(os.fspath(workdir), f"{case.kind}-{case.seed}")
+    csv_path, json_path = stem + ".csv", stem + ".json"
+    S.write_csv(case, csv_path)
+    if os.path.exists(json_path):
+        os.remove(json_path)
+    argv = ["diagnose", *S.cli_args(case, csv_path), "--json", json_path, "--quiet",
+            *extra_args]
+    status, report, stdout, stderr, elapsed, parse_error = run_cli(argv, json_path)
+    outcome = Outcome(case, status, report, stdout, stderr, elapsed=elapsed)
     outcome.failures = judge(outcome, parse_error)
     return outcome
 

@@ -24,16 +24,12 @@ What counts as right (:func:`judge`), per run:
 
 from __future__ import annotations
 
-import contextlib
-import io
-import json
 import math
 import os
-import time
-import traceback
 from dataclasses import dataclass, field
 
 import third_sim as S
+from second_sim_check import run_cli
 
 __all__ = ["Outcome", "diagnose_case", "judge", "bad_numbers"]
 
@@ -78,37 +74,14 @@ def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
                   extra_args: tuple[str, ...] = ()) -> Outcome:
     """Write ``case`` in ``workdir``, run ``fricbench diagnose ... --json`` on it in-process and
     judge the report."""
-    from fricbench.cli import main
-
     stem = os.path.join(os.fspath(workdir), f"third-{case.kind}-{case.seed}")
     csv_path, json_path = stem + (".tsv" if case.sep == "\t" else ".csv"), stem + ".json"
     case.write_csv(csv_path)
     if os.path.exists(json_path):
         os.remove(json_path)
     argv = ["diagnose", *case.cli_args(csv_path), "--json", json_path, "--quiet", *extra_args]
-    out, err = io.StringIO(), io.StringIO()
-    t0 = time.perf_counter()
-    status: int | None
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            status = main(argv)
-        except SystemExit as exc:
-            status = exc.code if isinstance(exc.code, int) else 2
-        except Exception:  # a traceback a user would see
-            traceback.print_exc()
-            status = None
-    elapsed = time.perf_counter() - t0
-    report = None
-    parse_error = None
-    if os.path.exists(json_path):
-        with open(json_path, encoding="utf-8") as fh:
-            text = fh.read()
-        try:
-            report = json.loads(text, parse_constant=lambda c: float(c.replace("Infinity",
-                                                                               "inf")))
-        except ValueError as exc:
-            parse_error = str(exc)
-    outcome = Outcome(case, status, report, out.getvalue(), err.getvalue(), elapsed=elapsed)
+    status, report, stdout, stderr, elapsed, parse_error = run_cli(argv, json_path)
+    outcome = Outcome(case, status, report, stdout, stderr, elapsed=elapsed)
     outcome.failures = judge(outcome, parse_error)
     return outcome
 
