@@ -211,25 +211,36 @@ def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
     return outcome
 
 
-def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
-    """Why ``outcome`` is not a right diagnosis of its case (empty list: it is)."""
-    case = outcome.case
+def run_failures(status: int | None, stderr: str, report: dict | None,
+                 parse_error: str | None) -> list[str]:
+    """What went wrong with the command itself, whatever the run: a traceback, a non-zero
+    exit, an unreadable or missing JSON report, a null, NaN or inf in it."""
     failures = []
-    if outcome.status is None or "Traceback (most recent call last)" in outcome.stderr:
-        failures.append(f"traceback: {_last_line(outcome.stderr)}")
-    elif outcome.status != 0:
-        failures.append(f"exit {outcome.status}: {_last_line(outcome.stderr)}")
+    if status is None or "Traceback (most recent call last)" in stderr:
+        failures.append(f"traceback: {_last_line(stderr)}")
+    elif status != 0:
+        failures.append(f"exit {status}: {_last_line(stderr)}")
     if parse_error is not None:
         failures.append(f"JSON unreadable: {parse_error}")
-    report = outcome.report
     if report is None:
-        if outcome.status == 0:
+        if status == 0:
             failures.append("exit 0 without a JSON report")
         return failures
-    bad = outcome.bad = bad_numbers(report)
+    bad = bad_numbers(report)
     if bad:
         more = f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""
         failures.append(f"non-finite {bad[0]}{more}")
+    return failures
+
+
+def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
+    """Why ``outcome`` is not a right diagnosis of its case (empty list: it is)."""
+    case = outcome.case
+    failures = run_failures(outcome.status, outcome.stderr, outcome.report, parse_error)
+    report = outcome.report
+    if report is None:
+        return failures
+    outcome.bad = bad_numbers(report)
     effects = set(report.get("effects", []))
     present = S.EFFECT_NAME[case.kind]
     allowed = S.FRICTION_NAMES | ({present} if present else set())

@@ -29,22 +29,9 @@ import os
 from dataclasses import dataclass, field
 
 import third_sim as S
-from second_sim_check import run_cli
+from second_sim_check import bad_numbers, run_cli, run_failures
 
 __all__ = ["Outcome", "diagnose_case", "judge", "bad_numbers"]
-
-
-def bad_numbers(obj: object, path: str = "") -> list[str]:
-    """Key paths of the null, NaN and inf values anywhere in a parsed JSON document."""
-    if isinstance(obj, dict):
-        return [p for k, v in obj.items() for p in bad_numbers(v, f"{path}.{k}" if path else k)]
-    if isinstance(obj, list):
-        return [p for i, v in enumerate(obj) for p in bad_numbers(v, f"{path}[{i}]")]
-    if obj is None:
-        return [f"{path} = null"]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return [f"{path} = {obj}"]
-    return []
 
 
 @dataclass
@@ -86,31 +73,14 @@ def diagnose_case(case: S.Case, workdir: str | os.PathLike[str],
     return outcome
 
 
-def _last_line(text: str) -> str:
-    lines = [ln for ln in text.strip().splitlines() if ln.strip()]
-    return lines[-1].strip() if lines else ""
-
-
 def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
     """Why ``outcome`` is not a right diagnosis of its run (empty: it is); see the module."""
     case = outcome.case
     truth = case.truth()
-    failures: list[str] = []
-    if outcome.status is None or "Traceback (most recent call last)" in outcome.stderr:
-        failures.append(f"traceback: {_last_line(outcome.stderr)}")
-    elif outcome.status != 0:
-        failures.append(f"exit {outcome.status}: {_last_line(outcome.stderr)}")
-    if parse_error is not None:
-        failures.append(f"JSON unreadable: {parse_error}")
+    failures = run_failures(outcome.status, outcome.stderr, outcome.report, parse_error)
     report = outcome.report
     if report is None:
-        if outcome.status == 0:
-            failures.append("exit 0 without a JSON report")
         return failures
-    bad = bad_numbers(report)
-    if bad:
-        more = f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""
-        failures.append(f"non-finite {bad[0]}{more}")
     named = set(report.get("effects", []))
     for name in truth["required"]:  # type: ignore[attr-defined]
         if name not in named:
