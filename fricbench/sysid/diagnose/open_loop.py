@@ -40,7 +40,7 @@ from fricbench.sysid.diagnose.criterion import (
     effective_samples,
     parameter_covariance,
 )
-from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
+from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, size_entries
 from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
 from fricbench.sysid.diagnose.parameters import BOUND_TOLERANCE
@@ -515,12 +515,6 @@ def free_run_floor(fold_fits: dict[int, np.ndarray], effort: np.ndarray, y: np.n
     return float(np.sqrt(sq / count)) if count else 0.0
 
 
-def _sizes(name: str, idx: Sequence[int]) -> list[int]:
-    """Entries of ``idx`` that are sizes of effect ``name`` (not its shape)."""
-    eff = get_effect(name)
-    return [i for i in eff.parameters if i not in eff.shape_parameters and i in idx]
-
-
 def _uncertainty(fit: _Fit, settings: DiagnoseSettings) -> tuple[np.ndarray, float]:
     """Standard deviations of the fit's free entries (in ``fit.idx`` order) and ``n_eff``.
 
@@ -550,7 +544,7 @@ def _least_detected(fit: _Fit, sd: np.ndarray, settings: DiagnoseSettings
     detected."""
     worst: tuple[str, float] | None = None
     for name in fit.model.effects:
-        sizes = _sizes(name, fit.idx)
+        sizes = size_entries(name, fit.idx)
         if not sizes:
             continue
         z = max(abs(fit.model.plant[i]) / max(sd[fit.idx.index(i)], 1e-300) for i in sizes)

@@ -29,7 +29,8 @@ from fricbench.sysid.diagnose.criterion import (
     effective_samples,
     parameter_covariance,
 )
-from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
+from fricbench.sysid.diagnose.effects import describe_parameters, size_entries
+from fricbench.sysid.diagnose.leastsq import batched_jacobian
 from fricbench.sysid.diagnose.models import (
     Bounds,
     GreyBox,
@@ -79,11 +80,6 @@ class ModelUncertainty:
                 "n_eff": self.n_eff, "n_params": self.n_params}
 
 
-def _sizes(name: str) -> list[int]:
-    eff = get_effect(name)
-    return [i for i in eff.parameters if i not in eff.shape_parameters]
-
-
 def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None = None,
                       *, force_unit: str = "N",
                       settings: DiagnoseSettings = DEFAULT_SETTINGS) -> ModelUncertainty:
@@ -110,16 +106,22 @@ def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray |
         return ModelUncertainty()
     params = position_params(model, b, controller=True, effects=list(model.effects))
     fit = PositionFit(prep, params, None, w)
-    theta0, lo, hi, steps = _lm_box(params, model)
-    # a step that would leave the box goes the other way (as the fit's own Jacobian does)
-    h = np.where(theta0 + steps <= hi, steps, -steps)
-    thetas = np.vstack([theta0[None, :], theta0[None, :] + np.diag(h)])
-    ys, loads = fit._simulate(_models_at(model, params, thetas))
-    res = [fit._resid(y, None if loads is None else loads[i]) for i, y in enumerate(ys)]
-    r0 = res[0]
-    if not np.all(np.isfinite(ys[0])):
+    theta0, _, hi, steps = _lm_box(params, model)
+    finite: list[bool] = []
+
+    def residuals(thetas: np.ndarray) -> np.ndarray:
+        ys, loads = fit._simulate(_models_at(model, params, thetas))
+        if thetas.shape[0] == 1:
+            finite.append(bool(np.all(np.isfinite(ys[0]))))
+        return np.array([fit._resid(y, None if loads is None else loads[i])
+                         for i, y in enumerate(ys)])
+
+    # the fit's own finite differences (a step that would leave the box goes the other way)
+    fun, jacobian = batched_jacobian(residuals, steps, hi)
+    r0 = fun(theta0)
+    if not finite[-1]:
         return ModelUncertainty()
-    jac = np.column_stack([(res[j + 1] - r0) / h[j] for j in range(len(params))])
+    jac = jacobian(theta0)
     n_eff = effective_samples(r0, settings.max_lag_share)
     cov_theta = parameter_covariance(jac, r0, n_eff)
     # theta -> physical value: d value / d theta is the value (a logarithm) or the scale
@@ -137,9 +139,7 @@ def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray |
                                                       force_unit=force_unit),
                                     row, idx, cov_plant, fd)
         zs = []
-        for i in _sizes(name):
-            if i not in idx:
-                continue
+        for i in size_entries(name, idx):
             sd = math.sqrt(max(float(cov_plant[idx.index(i), idx.index(i)]), 0.0))
             zs.append(abs(float(row[i])) / sd if sd > 0.0 else math.inf)
         if zs:

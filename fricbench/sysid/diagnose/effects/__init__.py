@@ -28,7 +28,7 @@ from fricbench.registry import Registry
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 
 __all__ = ["Effect", "Probe", "effect_registry", "get_effect", "effect_names", "EFFECT_NAMES",
-           "free_indices", "describe_parameters"]
+           "free_indices", "size_entries", "describe_parameters"]
 
 effect_registry: Registry[Effect] = Registry("effect", "fricbench.effects")
 
@@ -78,6 +78,13 @@ EFFECT_NAMES = effect_names()
 def free_indices(name: str, effects: Sequence[str]) -> tuple[int, ...]:
     """Plant entries that are free parameters of effect ``name`` given the model's effects."""
     return get_effect(name).free(effects)
+
+
+def size_entries(name: str, idx: Sequence[int]) -> list[int]:
+    """Entries of ``idx`` that are sizes of effect ``name`` (a gap, a level, an amplitude),
+    not its shape (a period, a time constant): what "not detected" is judged on."""
+    eff = get_effect(name)
+    return [i for i in eff.parameters if i not in eff.shape_parameters and i in idx]
 
 
 def describe_parameters(name: str, p: np.ndarray, force_unit: str) -> dict[str, float]:
