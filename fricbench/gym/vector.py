@@ -122,6 +122,7 @@ class ServoAxisVectorEnv(VectorEnv):
         cfg = self.task.observation
         self._offsets = preview_offsets(cfg).astype(np.int64)
         self._scales = obs_scales(cfg)
+        self._inv_scales = 1.0 / self._scales
         self._nf = n_features(cfg)
         # refuse what cannot fit before allocating or generating anything
         per_env = bytes_per_env(self._nf, bool(self.task.randomize.ranges))
@@ -237,8 +238,9 @@ class ServoAxisVectorEnv(VectorEnv):
                            self._A, self._len, self._ref_id, self._k, a, hold,
                            self.task.action == "force",
                            self.task.action_scale, draws, self._offsets, self._scales,
-                           reward.error_scale, reward.action_weight, self._prev_action,
-                           self._work, self._batch.status, obs, rewards, truncated)
+                           self._inv_scales, reward.error_scale, reward.action_weight,
+                           self._prev_action, self._work, self._batch.status, obs, rewards,
+                           truncated)
         if code < 0:
             raise ValueError(f"actions[{-1 - code}] = {a[-1 - code]!r}: contains NaN or inf")
         if code > 0:

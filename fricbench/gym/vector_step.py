@@ -6,6 +6,12 @@ with the plant constants and gains of each row, or of the one row every sub-env 
 the observation is :func:`fricbench.gym.task.observe_row`; this module only fuses the per-step
 glue around them, which in numpy cost as much as the physics at 4096 envs (a dozen passes over
 the batch and their temporaries).
+
+The step is compiled without numba's reference counting (``_nrt=False``: it allocates nothing).
+With it, every sub-env paid an atomic increment and decrement for each array handed to the
+inlined kernel body and observation (a view of its state row, the scratch, the tables): about
+20 pairs of locked instructions per sub-env, which each drain the store buffer, a third of the
+step's time.
 """
 
 from __future__ import annotations
@@ -14,19 +20,52 @@ import math
 
 import numba
 import numpy as np
+from numba.core import types
+from numba.extending import intrinsic
 
 from fricbench.axis import plant as PL
 from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis_with, gains
 from fricbench.gym.task import observe_row
 
-__all__ = ["vector_step"]
+__all__ = ["step_reward", "vector_step"]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@intrinsic
+def _fma(typingctx, a, b, c):  # type: ignore[no-untyped-def]
+    """``a * b + c`` rounded once (``llvm.fma``)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+# fastmath=False said explicitly: a function called from a fast-math one inherits its flags
+@numba.njit(cache=True, fastmath=False)
+def step_reward(d: float, inv_e: float, e_s: float, inv_rs: float, a: float,
+                w: float) -> float:
+    """``r = -(e / r_s)^2 - w a^2`` of one sub-env step, with ``d = x_ref - x_meas`` (m),
+    ``inv_e = 1 / e_s`` (the error feature's scale), ``inv_rs = 1 / r_s`` (the reward's error
+    scale) and ``a`` the clipped action.
+
+    The fused step wrote ``e = (d / e_s) (e_s / r_s)``, ``r = -e^2 - w a^2`` and let fast-math
+    choose the order; its compiler took ``e = ((1 / e_s) e_s) d (1 / r_s)`` and fused the square
+    into the subtraction (``-e^2 - (a^2) w`` rounded once). That order is written out here, and
+    compiled without fast-math so that no code around it can change it: the rewards (those PPO
+    trains on) stay what they were, bit for bit.
+    """
+    e = ((inv_e * e_s) * d) * inv_rs
+    # r = -e^2 - (a^2) w, one rounding
+    return _fma(-e, e, -((a * a) * w))  # type: ignore[call-arg]
+
+
+# _nrt=False: numba's (underscored, unstubbed) option for a function that allocates nothing
+@numba.njit(cache=True, fastmath=FASTMATH, _nrt=False)  # type: ignore[call-overload]
 def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np.ndarray,
                 A: np.ndarray, lengths: np.ndarray, ref_id: np.ndarray, k: np.ndarray,
                 action: np.ndarray, hold: np.ndarray, force_action: bool, action_scale: float,
-                draws: np.ndarray, offsets: np.ndarray, scales: np.ndarray,
+                draws: np.ndarray, offsets: np.ndarray, scales: np.ndarray, inv: np.ndarray,
                 reward_error_scale: float, action_weight: float, prev_action: np.ndarray,
                 work: np.ndarray, status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
                 truncated: np.ndarray) -> int:
@@ -57,10 +96,12 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         N (force) or m (offset) per unit action.
     draws : ndarray, shape (N,)
         Standard normal draws for the measurement noise of this step.
-    offsets, scales : ndarray
-        Preview offsets and observation scales (:func:`fricbench.gym.task.obs_scales`).
+    offsets, scales, inv : ndarray
+        Preview offsets, observation scales (:func:`fricbench.gym.task.obs_scales`) and
+        their reciprocals.
     reward_error_scale, action_weight : float
-        ``r = -(e / reward_error_scale)^2 - action_weight a^2`` with ``e`` the measured error.
+        ``r = -(e / reward_error_scale)^2 - action_weight a^2`` with ``e`` the measured error
+        (:func:`step_reward`).
     prev_action : ndarray, shape (N,)
         Updated with the applied (clipped) action.
     work : ndarray, shape (10, 1, 1)
@@ -84,9 +125,8 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
             return -1 - n
     xr, vr, ar, u_force, u_off, noise = work[0], work[1], work[2], work[3], work[4], work[5]
     x_true, x_meas, force, friction = work[6], work[7], work[8], work[9]
-    inv = 1.0 / scales
-    # the reward scores the error feature (float64) as the scalar env does: e = o_0 * e_s
-    inv_r = scales[0] / reward_error_scale
+    inv_e, e_s = inv[0], scales[0]
+    inv_rs = 1.0 / reward_error_scale
     first_bad = 0
     # unpacking a plant row (divisions, branches) costs a third of a sample: done once when
     # the rows share one plant, else per row as the kernel's drivers do; the shared row also
@@ -127,13 +167,12 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
             k[n] = kk + 1
         prev_action[n] = a
         kk = k[n]
-        err = (X[i, kk] - S[n, S_XMEAS]) * inv[0]
         observe_row(n, S, p0 if shared else P[n], X, V, A, i, kk, offsets, a, inv, obs)
         if hold[n]:
             reward[n] = 0.0
             truncated[n] = False
         else:
-            e = err * inv_r
-            reward[n] = -e * e - action_weight * a * a
+            reward[n] = step_reward(X[i, kk] - S[n, S_XMEAS], inv_e, e_s, inv_rs, a,
+                                    action_weight)
             truncated[n] = kk >= lengths[i] - 1
     return first_bad

@@ -140,9 +140,9 @@ def test_vector_rollout_equals_the_scalar_envs_bit_for_bit(case: str, mode: str)
                 elif trunc:
                     pending[i] = True
             # the reward to rounding, not bit for bit: the scalar env scores
-            # -(e e_s / r_s)^2 - w a^2 in Python, the compiled step -(e (e_s / r_s))^2 - w a^2
-            # with fused multiply-adds (as since the fused step was written; making it the
-            # scalar env's would move the rewards PPO trains the rl compensators on)
+            # -(e e_s / r_s)^2 - w a^2 in Python, the compiled step in the order of
+            # step_reward (as since the fused step was written; making it the scalar env's
+            # would move the rewards PPO trains the rl compensators on)
             np.testing.assert_allclose(vrew[i], rew, rtol=1e-14, atol=0.0)
             assert vtrunc[i] == trunc and not vterm[i]
             truncations += int(trunc)
@@ -151,3 +151,35 @@ def test_vector_rollout_equals_the_scalar_envs_bit_for_bit(case: str, mode: str)
     assert truncations >= 2 * n
     # the sub-envs moved apart (different actions): not one trajectory compared four times
     assert apart
+
+
+def test_reward_is_the_written_out_order_bit_for_bit() -> None:
+    """The vector env's reward is, bit for bit, ``r = -e^2 - (a^2) w`` rounded once, with
+    ``e = ((1 / e_s) e_s) d (1 / r_s)`` rounded at each product (:func:`step_reward`: the order
+    its fast-math compile had chosen, now fixed), computed here exactly with fractions from the
+    env's own error ``d = x_ref - x_meas`` and clipped action ``a``."""
+    from fractions import Fraction
+
+    from fricbench.axis.kernel import S_XMEAS
+
+    spec = get_spec("fricbench/PaperAxis-v0")
+    task = replace(spec.task, trajectories=(TrajectoryChoice("random", {"duration": 0.05}),))
+    n = 5
+    venv = ServoAxisVectorEnv(num_envs=n, axis=spec.axis, task=task, reference_pool=2, seed=1)
+    venv.reset(seed=2)
+    e_s, r_s = venv._scales[0], task.reward.error_scale
+    w = task.reward.action_weight
+    rng = np.random.default_rng(3)
+    checked = 0
+    for _ in range(120):
+        a = rng.uniform(-1.5, 1.5, (n, 1))
+        held = venv._autoreset.copy()
+        _, reward, _, _, _ = venv.step(a)
+        d = venv._X[venv._ref_id, venv._k] - venv._batch.S[:, S_XMEAS]
+        for i in np.flatnonzero(~held):
+            ai = min(1.0, max(-1.0, float(a[i, 0])))
+            e = (((1.0 / e_s) * e_s) * float(d[i])) * (1.0 / r_s)
+            exact = float(-Fraction(e) * Fraction(e) - Fraction((ai * ai) * w))
+            assert reward[i] == exact and np.signbit(reward[i]) == np.signbit(exact)
+            checked += 1
+    assert checked > 500
