@@ -21,6 +21,7 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController, LoopInputs
 from fricbench.sysid.diagnose.models import Bounds, GreyBox, cascade_effort, position_params
 from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 from fricbench.sysid.io import validate_arrays
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -193,7 +194,8 @@ def test_a_clipping_drive_is_found_from_the_position() -> None:
     limit = BL.fit_drive_limit(fit, prep, bounds)
     assert limit is not None
     assert 0.5 * truth < limit.level < 2.0 * truth, (limit, truth)
-    assert limit.sse_ratio < BL.LIMIT_MARGIN and limit.clipped_share >= BL.LIMIT_MIN_CLIPPED
+    assert limit.sse_ratio < DEFAULT_SETTINGS.limit_margin
+    assert limit.clipped_share >= DEFAULT_SETTINGS.limit_min_clipped
     res = diagnose(run)
     assert any("the drive clips" in w for w in res.warnings)
     assert res.final.plant[CL.I_IMAX] == pytest.approx(limit.level)
@@ -245,7 +247,8 @@ def test_a_drive_sized_for_its_friction_is_found_from_the_position(seed: int) ->
     headroom = found.level - found.model.plant[CL.I_FC]
     true_headroom = truth - fc / plant.mass
     assert 0.75 * true_headroom < headroom < 1.25 * true_headroom, (headroom, true_headroom)
-    assert found.sse_ratio < BL.LIMIT_MARGIN and found.clipped_share >= BL.LIMIT_MIN_CLIPPED
+    assert found.sse_ratio < DEFAULT_SETTINGS.limit_margin
+    assert found.clipped_share >= DEFAULT_SETTINGS.limit_min_clipped
 
 
 def test_a_drive_clipping_against_a_friction_many_times_the_motion_is_found(
@@ -272,14 +275,15 @@ def test_a_drive_clipping_against_a_friction_many_times_the_motion_is_found(
     found = BL.fit_drive_limit(fit, prep, bounds)
     assert found is not None
     assert found.level == pytest.approx(truth, rel=0.15)
-    assert found.sse_ratio < 0.05 and found.clipped_share >= BL.LIMIT_MIN_CLIPPED
+    assert found.sse_ratio < 0.05 and found.clipped_share >= DEFAULT_SETTINGS.limit_min_clipped
 
 
 def test_a_fast_loop_clipping_against_large_friction_is_found_from_a_slow_log() -> None:
     """A PID loop at 1 kHz, logged at 100 Hz, whose drive clips against a Coulomb friction
     as large as the motion's own acceleration (no effort logged). A loop fitted without a
     limit finds no friction at all there, and a loop at the log's rate cannot reproduce the
-    drive: the limit's grid of starts and the loop at LOOP_TS find the limit and the friction
+    drive: the limit's grid of starts and the loop at ``settings.loop_ts`` find the limit and
+    the friction
     within 15 % (the second simulator's truth), the diagnosis says at which rate its loop
     runs and cuts the position error far below the linear model's."""
     from fricbench.sysid.diagnose import diagnosis as D
@@ -295,7 +299,7 @@ def test_a_fast_loop_clipping_against_large_friction_is_found_from_a_slow_log() 
     mass, kt = case.plant.mass, case.ctrl.kt
     slow = D._loop_base(prep, run.n_reversals)
     fast = D._loop_base(prep.with_loop(10), run.n_reversals)
-    assert fast.cost < D.LOOP_RATE_MARGIN * slow.cost, (fast.cost, slow.cost)
+    assert fast.cost < DEFAULT_SETTINGS.loop_rate_margin * slow.cost, (fast.cost, slow.cost)
     assert fast.limit is not None and fast.limit.model is not None
     truth = case.ctrl.limit * kt / mass
     assert fast.limit.level == pytest.approx(truth, rel=0.15)

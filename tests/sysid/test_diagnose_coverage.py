@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fricbench.sysid.diagnose.coverage import BEYOND_SHARE, coverage
+from fricbench.sysid.diagnose.coverage import coverage
 from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 from fricbench.sysid.io import RunData, validate_arrays
 
 
@@ -22,7 +23,8 @@ def test_a_validation_run_inside_the_training_runs_range_gets_no_warning() -> No
     train = prepare(_sine_run(0.05, 0.5))
     other = prepare(_sine_run(0.05, 0.5, seed=1), cutoff_hz=train.cutoff_hz, decim=train.decim)
     cov = coverage(train, other)
-    assert cov.share_faster < BEYOND_SHARE and cov.share_outside < BEYOND_SHARE
+    beyond = DEFAULT_SETTINGS.beyond_share
+    assert cov.share_faster < beyond and cov.share_outside < beyond
     assert cov.warnings(train) == []
 
 

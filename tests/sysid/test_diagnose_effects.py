@@ -119,15 +119,16 @@ def test_plugin_effect_joins_the_search_order() -> None:
 
 def test_a_failed_screen_sends_a_friction_level_effect_to_a_real_fit() -> None:
     """The position search fits an effect whose linearised screen failed (its held-out ratio
-    above SCREEN_FAILED) for real when the effect says its screen cannot be trusted; the others
-    keep their rank; the always-fitted ones are fitted whatever the screen."""
-    from fricbench.sysid.diagnose.search import SCREEN_FAILED, _fitted_anyway
+    above ``settings.screen_failed``) for real when the effect says its screen cannot be
+    trusted; the others keep their rank; the always-fitted ones are fitted whatever the screen."""
+    from fricbench.sysid.diagnose.search import _fitted_anyway
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     posdep = "position_dependent_friction"
     assert get_effect(posdep).fitted_when_screen_fails
-    assert _fitted_anyway(posdep, 1.01 * SCREEN_FAILED)
-    assert not _fitted_anyway(posdep, 0.99 * SCREEN_FAILED)
-    assert not _fitted_anyway("force_offset", 100.0 * SCREEN_FAILED)
+    assert _fitted_anyway(posdep, 1.01 * DEFAULT_SETTINGS.screen_failed)
+    assert not _fitted_anyway(posdep, 0.99 * DEFAULT_SETTINGS.screen_failed)
+    assert not _fitted_anyway("force_offset", 100.0 * DEFAULT_SETTINGS.screen_failed)
     for name in effect_names():
         if get_effect(name).always_fitted:
             assert _fitted_anyway(name, 0.5) and _fitted_anyway(name, 100.0)
@@ -136,24 +137,27 @@ def test_a_failed_screen_sends_a_friction_level_effect_to_a_real_fit() -> None:
 def test_an_always_fitted_effect_found_negligible_is_fitted_again_only_on_a_promising_screen(
 ) -> None:
     """Once a real fit found an always-fitted effect negligible, a later step fits it again
-    only when its screen promises a cut (below SCREEN_PROMISE); other effects are untouched."""
-    from fricbench.sysid.diagnose.search import SCREEN_PROMISE, _fitted_anyway
+    only when its screen promises a cut (below ``settings.screen_promise``); other effects are
+    untouched."""
+    from fricbench.sysid.diagnose.search import _fitted_anyway
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     always = [n for n in effect_names() if get_effect(n).always_fitted]
     assert always
     for name in always:
         seen = frozenset({name})
-        assert not _fitted_anyway(name, SCREEN_PROMISE, seen)
+        assert not _fitted_anyway(name, DEFAULT_SETTINGS.screen_promise, seen)
         assert not _fitted_anyway(name, 1.0, seen)
-        assert _fitted_anyway(name, 0.99 * SCREEN_PROMISE, seen)
+        assert _fitted_anyway(name, 0.99 * DEFAULT_SETTINGS.screen_promise, seen)
         # another effect found negligible changes nothing for this one
         assert _fitted_anyway(name, 1.0, frozenset({"force_offset"}))
 
 
 def test_an_output_effect_found_negligible_with_an_effort_is_not_fitted_again() -> None:
-    """With an effort, an output effect whose fit left it below NEGLIGIBLE_SIZE of the size it
-    must reach is not fitted again at the later steps (its fit is the slow part of each step)
-    until the forces added since have halved the position residual it was judged against;
+    """With an effort, an output effect whose fit left it below ``settings.negligible_size`` of
+    the size it must reach is not fitted again at the later steps (its fit is the slow part of
+    each step) until the forces added since have halved the position residual it was judged
+    against;
     the effects the run carries are still found."""
     from fricbench.bench.diagnose_timing import benchmark_run
     from fricbench.sysid.diagnose import diagnose

@@ -155,13 +155,14 @@ def test_a_cascade_keeps_its_velocity_integral() -> None:
     also integrates ``(kvff - 1) v_r``. The law is read back from the regression's
     coefficients exactly (random gains); with ``kvff = 1`` it is the PID it then is
     (``kp' = kp + ki``, ``kpi = ki kp``)."""
-    from fricbench.sysid.diagnose.equation_error import KI_KVFF_MIN, _law
+    from fricbench.sysid.diagnose.equation_error import _law
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     rng = np.random.default_rng(12)
     for _ in range(20):
         wv, kp, ki = rng.uniform(20, 400), rng.uniform(5, 80), rng.uniform(1, 60)
         kaff, pole = rng.uniform(0, 1.2), rng.uniform(0, 0.9)
-        kvff = 1.0 + rng.choice([-1, 1]) * rng.uniform(2 * KI_KVFF_MIN, 0.5)
+        kvff = 1.0 + rng.choice([-1, 1]) * rng.uniform(2 * DEFAULT_SETTINGS.ki_kvff_min, 0.5)
         coef = np.array([wv * (kp + ki), wv * kvff, wv, wv * ki * kp, kaff, 0.3,
                          wv * ki * (kvff - 1.0)])
         got = _law(coef, pole)

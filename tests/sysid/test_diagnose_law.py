@@ -18,10 +18,11 @@ import numpy as np
 import pytest
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.baselines import LAW_PREFILTERS, fit_law
+from fricbench.sysid.diagnose.baselines import fit_law
 from fricbench.sysid.diagnose.controllers import fit_arx_controller
 from fricbench.sysid.diagnose.models import GreyBox, simulate_position
 from fricbench.sysid.diagnose.prepared import prepare
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 from fricbench.sysid.io import load_run
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -72,7 +73,7 @@ def test_the_law_is_chosen_among_prefilters_and_reports_its_own_error(tmp_path) 
     law = fit_law(prep)
     assert law.prefilter_hz is None or any(
         f is not None and law.prefilter_hz == pytest.approx(f * 0.5 / prep.ts)
-        for f in LAW_PREFILTERS)
+        for f in DEFAULT_SETTINGS.law_prefilters)
     # the error reported is the law's next-effort error on the logged signals, unfiltered
     inp = prep.inputs
     e = prep.u - law.predict(inp.xr, inp.vr, prep.x, prep.u, prep.ts)
@@ -185,7 +186,8 @@ def test_a_cascade_law_yields_its_gains_and_is_the_same_law_clamped(seed: int,
     # through the narrowest prefilter: the log's own noise biases the unfiltered law's
     # derivative taps (see fit_law)
     law = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
-                             integrator=True, prefilter_hz=LAW_PREFILTERS[-1] * 0.5 / prep.ts)
+                             integrator=True,
+                             prefilter_hz=DEFAULT_SETTINGS.law_prefilters[-1] * 0.5 / prep.ts)
     i_gain, p_gain, d_gain, kvff = law.pid_terms(prep.ts)
     # the effort is the current command (A): D = k_v, P = k_v (k_p + k_i), I = k_v k_p k_i
     assert d_gain == pytest.approx(c.kv, rel=0.1)
@@ -252,7 +254,7 @@ def test_a_clipping_cascade_is_run_with_its_velocity_integral_held(tmp_path) -> 
         inp = prep.inputs
         law = fit_arx_controller(inp.xr, inp.vr, prep.x, prep.u, prep.ts, prep.folds,
                                  exclude=prep.saturation.mask, integrator=True,
-                                 prefilter_hz=LAW_PREFILTERS[-1] * 0.5 / prep.ts)
+                                 prefilter_hz=DEFAULT_SETTINGS.law_prefilters[-1] * 0.5 / prep.ts)
         p = _true_plant(case)
         p[CL.I_IMAX] = prep.saturation.level
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fricbench.sysid.diagnose.prepared import MAX_STEP, N_SUB_MIN, prepare, substeps
+from fricbench.sysid.diagnose.prepared import prepare, substeps
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 from fricbench.sysid.io import RunData, validate_arrays
 
 
@@ -14,11 +15,11 @@ from fricbench.sysid.io import RunData, validate_arrays
 def test_the_step_is_at_most_max_step_and_no_finer_than_it_needs(ts: float, n_loop: int
                                                                   ) -> None:
     k = substeps(ts, n_loop)
-    assert k >= N_SUB_MIN
+    assert k >= DEFAULT_SETTINGS.n_sub_min
     h = ts / n_loop / k
-    assert h <= MAX_STEP * (1 + 1e-9)
-    # one substep fewer would break the step, unless the floor of N_SUB_MIN set it
-    assert k == N_SUB_MIN or ts / n_loop / (k - 1) > MAX_STEP
+    assert h <= DEFAULT_SETTINGS.max_step * (1 + 1e-9)
+    # one substep fewer would break the step, unless the floor of settings.n_sub_min set it
+    assert k == DEFAULT_SETTINGS.n_sub_min or ts / n_loop / (k - 1) > DEFAULT_SETTINGS.max_step
 
 
 def test_a_1_khz_log_keeps_two_substeps_and_a_100_hz_log_gets_ten() -> None:
@@ -27,7 +28,7 @@ def test_a_1_khz_log_keeps_two_substeps_and_a_100_hz_log_gets_ten() -> None:
     assert substeps(0.01) == 10
     # a sample time read from a rounded time column
     assert substeps(0.01 * (1 + 1e-9)) == 10
-    assert substeps(0.01, 10) == N_SUB_MIN
+    assert substeps(0.01, 10) == DEFAULT_SETTINGS.n_sub_min
 
 
 def _run(ts: float, n: int = 1_000) -> RunData:
@@ -48,5 +49,5 @@ def test_with_loop_keeps_the_substeps_per_logged_sample() -> None:
     assert fast.inputs.n_loop == 5
     assert fast.n_sub * 5 == prep.n_sub
     assert fast.with_loop(1).n_sub == prep.n_sub  # and back: the same step again
-    # each loop period keeps N_SUB_MIN, the step only gets finer
-    assert prep.with_loop(10).n_sub == N_SUB_MIN
+    # each loop period keeps settings.n_sub_min, the step only gets finer
+    assert prep.with_loop(10).n_sub == DEFAULT_SETTINGS.n_sub_min

@@ -8,14 +8,12 @@ import numpy as np
 import pytest
 
 from fricbench.sysid.diagnose.search import (
-    EFFORT_TOLERANCE,
-    ONE_BLOCK_MAJORITY,
-    ONE_BLOCK_WORSE,
     _blocks,
     _effort_check_tolerance,
     _judged_ratio,
     block_left_out,
 )
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 from fricbench.sysid.diagnose.signals import block_folds
 
 
@@ -58,7 +56,7 @@ def test_one_block_against_all_the_others_is_left_out() -> None:
 def test_no_block_is_left_out_without_a_clear_majority() -> None:
     rng = np.random.default_rng(3)
     base = _errors(rng)
-    n_wins = int(np.ceil(ONE_BLOCK_MAJORITY * 19)) - 1  # one short of the majority
+    n_wins = int(np.ceil(DEFAULT_SETTINGS.one_block_majority * 19)) - 1  # one short of the majority
     cand = base.copy()
     cand[1:1 + n_wins] *= 0.1
     cand[1 + n_wins:] *= 1.05
@@ -82,7 +80,7 @@ def test_a_block_the_candidate_hardly_changes_is_not_left_out() -> None:
     ratio, left_out = heldout_ratio(cand, base)
     assert left_out is None
     assert ratio == pytest.approx(cand.sum() / base.sum(), rel=1e-12)
-    cand[4] = ONE_BLOCK_WORSE * base[4]
+    cand[4] = DEFAULT_SETTINGS.one_block_worse * base[4]
     assert heldout_ratio(cand, base)[1] == 4
 
 
@@ -132,7 +130,7 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
     prep = SimpleNamespace(folds_dec=folds, sliding_dec=sliding)
     tol = _effort_check_tolerance(prep, n_params)  # type: ignore[arg-type]
     n_train = min(int(np.count_nonzero((folds != k) & sliding)) for k in (0, 1))
-    assert tol == pytest.approx(EFFORT_TOLERANCE + n_params / n_train)
+    assert tol == pytest.approx(DEFAULT_SETTINGS.effort_tolerance + n_params / n_train)
     rng = np.random.default_rng(7)
     ratios = []
     for _ in range(400):
@@ -150,4 +148,4 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
         ratios.append(sse[1] / sse[0])
     assert np.median(ratios) - 1.0 < tol
     if n_rows >= 2000:
-        assert tol < EFFORT_TOLERANCE + 0.003
+        assert tol < DEFAULT_SETTINGS.effort_tolerance + 0.003

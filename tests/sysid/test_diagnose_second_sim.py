@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 import fricbench.sysid.diagnose.diagnosis as D
+import fricbench.sysid.diagnose.settings as settings_module
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -501,7 +502,8 @@ def test_a_noisy_effort_hands_the_force_effects_to_the_position(
     assert default.ok, f"{C.format_row(default)}\n{default.stderr[-2000:]}"
     assert default.report is not None
     assert "position_dependent_friction" in default.report["mode_comparison"]["effort"]["effects"]
-    monkeypatch.setattr(D, "MODE_MARGIN", 0.0)
+    monkeypatch.setattr(settings_module, "DEFAULT_SETTINGS",
+                        replace(settings_module.DEFAULT_SETTINGS, mode_margin=0.0))
     outcome = C.diagnose_case(case, str(tmp_path))
     report = outcome.report
     assert report is not None, outcome.stderr[-2000:]
@@ -621,7 +623,7 @@ def test_friction_varying_along_the_stroke_is_not_taken_for_a_drift(tmp_path: ob
     no thermal growth. After Coulomb and position-dependent friction, 16 um is left at 300 x
     the floor, and the motion-heated drift's best fit (a time constant of 0.33 s, a term
     that follows the speed) was named. A thermal time constant under half a second is not heat
-    (:data:`~fricbench.sysid.diagnose.effects.thermal.MIN_TAU_S`): the fit ends on that bound
+    (``settings.thermal_min_tau_s``): the fit ends on that bound
     and is rejected; the friction is named and the error still cut 10 x."""
     case = S.draw_case("posdep", 13)
     assert case.plant.thermal_growth == 0.0
@@ -673,12 +675,12 @@ def test_an_axis_sticking_most_of_the_run_is_fitted_on_its_sliding_rows(tmp_path
     inverse dynamics; fitting the stuck ones too (the old fallback below a fifth of the run)
     fitted the integral's wind-up against the static friction: effort error 83 %, the Stribeck
     friction unseen (x1.003). On the sliding rows it is named."""
-    from fricbench.sysid.diagnose.prepared import MIN_SLIDING_ROWS
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     case = S.draw_case("stribeck", 21)
     prep = C.position_only(case, str(tmp_path))
     n_sliding = int(prep.sliding_dec.sum())
-    assert MIN_SLIDING_ROWS <= n_sliding < 0.2 * prep.sliding_dec.size
+    assert DEFAULT_SETTINGS.min_sliding_rows <= n_sliding < 0.2 * prep.sliding_dec.size
     outcome = C.diagnose_case(case, str(tmp_path))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
     assert outcome.report is not None and "stribeck_friction" in outcome.report["effects"]
@@ -786,11 +788,11 @@ def test_a_slow_stick_slip_log_is_integrated_finely_enough_to_show_its_stiction(
     stick-slip motion landed up to a step late, and the Stribeck friction's fits gained
     nothing over Coulomb friction alone (605 -> 213 mrad left, floor 96.7; the Stribeck
     friction missed). With a step of at most 1 ms (10 substeps), the stiction is named."""
-    from fricbench.sysid.diagnose.prepared import MAX_STEP
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     case = S.draw_case("stribeck", 15)
     prep = C.position_only(case, str(tmp_path))
-    assert prep.ts / prep.n_sub <= MAX_STEP < prep.ts / 2  # type: ignore[attr-defined]
+    assert prep.ts / prep.n_sub <= DEFAULT_SETTINGS.max_step < prep.ts / 2  # type: ignore[attr-defined]
     outcome = C.diagnose_case(case, str(tmp_path))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
     report = outcome.report
@@ -811,20 +813,22 @@ def _with_effort(case: S.Case, workdir: str) -> object:
 
 def test_the_effort_diagnosis_judges_its_forces_with_a_finer_step(tmp_path: object) -> None:
     """A run whose law is identified from its logged current is simulated with steps of at
-    most ``EFFORT_MAX_STEP``; the same run without its effort keeps the position's step."""
-    from fricbench.sysid.diagnose.prepared import MAX_STEP
+    most ``settings.effort_max_step``; the same run without its effort keeps the position's
+    step."""
+    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     case = S.draw_case("control", 8, law="cascade", saturate=False, log_every=1, effort="A",
                        delay=0, duration=3.0)
     run = _with_effort(case, str(tmp_path))
     result = D.diagnose(run)  # type: ignore[arg-type]
     assert result.mode == "effort"
-    assert result.prep.inputs.loop_ts / result.prep.n_sub <= D.EFFORT_MAX_STEP * (1 + 1e-9)
+    step = result.prep.inputs.loop_ts / result.prep.n_sub
+    assert step <= DEFAULT_SETTINGS.effort_max_step * (1 + 1e-9)
     assert result.to_dict()["data"]["integration_step_s"] == pytest.approx(  # type: ignore
         result.prep.inputs.loop_ts / result.prep.n_sub)
     alone = D.diagnose(replace(run, u=None))  # type: ignore[type-var]
     step = alone.prep.inputs.loop_ts / alone.prep.n_sub
-    assert D.EFFORT_MAX_STEP < step <= MAX_STEP
+    assert DEFAULT_SETTINGS.effort_max_step < step <= DEFAULT_SETTINGS.max_step
 
 
 def test_a_stiction_is_not_blamed_for_the_integrators_late_stops(tmp_path: object) -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fricbench.sysid.diagnose.search import POSITION_TOLERANCE
-from fricbench.sysid.diagnose.verdict import HELDOUT_GAIN, describe, judge
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
+from fricbench.sysid.diagnose.verdict import describe, judge
 
 TS = 1e-3
 T = np.arange(4_000) * TS
@@ -24,7 +24,7 @@ def _judge(effects: list[str], rms_after: float, heldout: tuple[float, float] | 
 
 
 def test_the_margin_is_the_searchs_position_tolerance() -> None:
-    assert HELDOUT_GAIN == POSITION_TOLERANCE
+    assert DEFAULT_SETTINGS.heldout_gain == DEFAULT_SETTINGS.position_tolerance
 
 
 @pytest.mark.parametrize(("after", "verdict"), [(0.5, "explained"), (0.97, "explained"),

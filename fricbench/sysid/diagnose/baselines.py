@@ -31,12 +31,13 @@ from fricbench.sysid.diagnose.models import (
     simulate_models,
 )
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 
-__all__ = ["LinearTF", "fit_law", "fit_law_like", "law_relerr_floor", "LAW_PREFILTERS",
+__all__ = ["LinearTF", "fit_law", "fit_law_like", "law_relerr_floor",
            "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort", "fit_law_and_delay",
            "force_scale", "starting_controllers", "friction_aware_loop",
-           "friction_aware_fit_scaled", "FRICTION_RAISE"]
+           "friction_aware_fit_scaled"]
 
 
 @dataclass
@@ -115,20 +116,6 @@ def starting_pid_controllers(ts: float) -> list[CascadeController]:
     return out
 
 
-FRICTION_STARTS = (0.3, 1.0)
-"""Coulomb forces of the friction-aware fit's starts, in units of the run's force scale (the
-largest reference acceleration, or the linear loop's virtual effort). The joint fit of a loop
-and its friction has several minima: from a light friction, a PID loop often settles where a
-high damping and no acceleration feedforward stand in for the friction (on the second
-simulator, thermal/8's fit stayed at 4.8 times the error of the true loop and friction); from
-a friction of the order of the loop's effort it reaches the true one. Both are refined and the
-better kept."""
-
-PID_MARGIN = 0.8
-"""A PID loop model replaces the cascade only when its fitted squared error is below this
-fraction of the cascade's (it has one more parameter; the simpler family is kept otherwise)."""
-
-
 def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
                        ) -> tuple[GreyBox, np.ndarray, Bounds, np.ndarray | None]:
     """Linear grey-box loop without effort: a cascade controller on a unit mass.
@@ -174,15 +161,6 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
     return best.model, best.y, bounds, best.jac_rows
 
 
-LIMIT_MARGIN = 0.5
-"""A drive limit identified from the position alone is kept only when the loop with it fits
-the run with at most this fraction of the squared error without it (a limit is one more
-nonlinearity a fit can bend to other mismatches: it must explain much)."""
-
-LIMIT_MIN_CLIPPED = 0.005
-"""Share of the samples the identified limit must clip (a limit that never acts is none)."""
-
-
 @dataclass(frozen=True)
 class DriveLimit:
     """A drive limit identified from a run without an effort.
@@ -206,28 +184,6 @@ class DriveLimit:
     model: GreyBox
 
 
-LIMIT_START_FRICTION = (0.5, 1.0)
-"""Coulomb forces of the drive limit's grid of starts, in units of the reference's largest
-acceleration (see :func:`fit_drive_limit`)."""
-
-LIMIT_START_LEVEL = (1.5, 3.0)
-"""Limits of the grid of starts, in units of the reference's largest acceleration."""
-
-LIMIT_LOWEST = 0.5
-"""Lowest drive limit fitted, in units of the reference's largest acceleration."""
-
-LIMIT_START_FRICTION_SIZED = (0.25, 0.5, 1.0)
-"""Coulomb forces of the second grid of starts (a drive sized for its friction), in units of
-the reference's largest acceleration; the grid also holds the Coulomb force of the fit without
-a limit (a slow axis's friction can be many times the motion's acceleration)."""
-
-LIMIT_START_HEADROOM = (1.2, 1.5, 3.0)
-"""Limits of the second grid, in units of each start's Coulomb force."""
-
-LIMIT_LOWEST_FRICTION_SIZED = 0.1
-"""Lowest drive limit of the second search, in units of the reference's largest acceleration."""
-
-
 def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
                     max_iter: int = 15, n_best: int = 3) -> DriveLimit | None:
     """The drive's command limit, when a run without an effort shows one; else None.
@@ -237,20 +193,14 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     return drive_limits(fit, prep, bounds, max_iter, n_best)[0]
 
 
-LIMIT_TENTATIVE = 1.0
-"""A limit whose loop leaves less than this share of the squared error without it, but not
-:data:`LIMIT_MARGIN`, is returned as tentative by :func:`drive_limits`: the loop with friction
-alone cannot tell, the effects the search then adds can (see the diagnosis's use of it)."""
-
-
 def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
                  max_iter: int = 15, n_best: int = 3
                  ) -> tuple[DriveLimit | None, DriveLimit | None]:
     """The drive's command limit kept (or None), and else the best tentative one (or None).
 
-    A tentative limit clips at least :data:`LIMIT_MIN_CLIPPED` of the samples and leaves
-    less than :data:`LIMIT_TENTATIVE` of the squared error without it, but not
-    :data:`LIMIT_MARGIN`; the kept one leaves less than that margin.
+    A tentative limit clips at least ``settings.limit_min_clipped`` of the samples and leaves
+    less than ``settings.limit_tentative`` of the squared error without it, but not
+    ``settings.limit_margin``; the kept one leaves less than that margin.
 
     A drive that clips its current (a rapid move, a reversal against friction) lags the
     reference in a way no linear loop with friction reproduces: without the effort nothing
@@ -259,19 +209,19 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     :func:`friction_aware_fit`) with the limit at 1 and 2 times the reference's largest
     acceleration (a drive sized for the motion), and from the best ``n_best`` of a grid: the
     standard loops of both families and ``fit``'s with a Coulomb force of
-    :data:`LIMIT_START_FRICTION` and a limit of :data:`LIMIT_START_LEVEL` times that
-    acceleration, the limit bounded below by :data:`LIMIT_LOWEST` of it. A drive that clips
+    ``settings.limit_start_friction`` and a limit of ``settings.limit_start_level`` times that
+    acceleration, the limit bounded below by ``settings.limit_lowest`` of it. A drive that clips
     against a friction as large as the motion's own acceleration lags so far that a fit without
     a limit finds no friction at all (the loop alone explains more): ``fit`` is then no start
-    for the limit. The limit is kept when the error falls below :data:`LIMIT_MARGIN` of the
-    error without it and the fitted loop clips at least :data:`LIMIT_MIN_CLIPPED` of the
+    for the limit. The limit is kept when the error falls below ``settings.limit_margin`` of the
+    error without it and the fitted loop clips at least ``settings.limit_min_clipped`` of the
     samples. Like the loop gains it is a property of the loop the effects are then judged with,
     not an effect.
 
     When no such limit is kept, a drive sized for its friction rather than for the motion is
-    searched: a grid of Coulomb forces (:data:`LIMIT_START_FRICTION_SIZED`, and ``fit``'s own)
-    with limits a little above each (:data:`LIMIT_START_HEADROOM`), the limit bounded below by
-    :data:`LIMIT_LOWEST_FRICTION_SIZED` of the acceleration. Such a drive clips on every fast
+    searched: a grid of Coulomb forces (``settings.limit_start_friction_sized``, and ``fit``'s own)
+    with limits a little above each (``settings.limit_start_headroom``), the limit bounded below by
+    ``settings.limit_lowest_friction_sized`` of the acceleration. Such a drive clips on every fast
     move (the second simulator's thermal/17: a limit of 1.3 times the Coulomb force, a third of
     the reference's largest acceleration, 4 % of the samples clipped; no limit was found and
     82 um were left, 80 times the floor). It is the second search, not part of the first: the
@@ -284,10 +234,11 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None, None
-    motion = [(f_fc, f_lim) for f_fc in LIMIT_START_FRICTION for f_lim in LIMIT_START_LEVEL]
-    first = _fit_limit(fit, prep, bounds, a_ref, motion, LIMIT_LOWEST, (1.0, 2.0),
+    cfg = defaults()
+    motion = [(f_fc, f_lim) for f_fc in cfg.limit_start_friction for f_lim in cfg.limit_start_level]
+    first = _fit_limit(fit, prep, bounds, a_ref, motion, cfg.limit_lowest, (1.0, 2.0),
                        max_iter, n_best)
-    if first is not None and first.sse_ratio < LIMIT_MARGIN:
+    if first is not None and first.sse_ratio < cfg.limit_margin:
         return first, None
     # the friction the fit without a limit found is a start of the second search too: a
     # drive sized for its friction clips just above it, however it compares with the
@@ -297,13 +248,13 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     # cogging cut that 2.7x)
     fitted = (float(fit.model.plant[CL.I_FC]) / a_ref
               if "coulomb_friction" in fit.model.effects else 0.0)
-    levels = sorted({*LIMIT_START_FRICTION_SIZED, *([fitted] if fitted > 0.0 else [])})
-    friction = [(f_fc, h * f_fc) for f_fc in levels for h in LIMIT_START_HEADROOM]
-    second = _fit_limit(fit, prep, bounds, a_ref, friction, LIMIT_LOWEST_FRICTION_SIZED, (),
+    levels = sorted({*cfg.limit_start_friction_sized, *([fitted] if fitted > 0.0 else [])})
+    friction = [(f_fc, h * f_fc) for f_fc in levels for h in cfg.limit_start_headroom]
+    second = _fit_limit(fit, prep, bounds, a_ref, friction, cfg.limit_lowest_friction_sized, (),
                         max_iter, n_best)
-    if second is not None and second.sse_ratio < LIMIT_MARGIN:
+    if second is not None and second.sse_ratio < cfg.limit_margin:
         return second, None
-    near = [d for d in (first, second) if d is not None and d.sse_ratio < LIMIT_TENTATIVE]
+    near = [d for d in (first, second) if d is not None and d.sse_ratio < cfg.limit_tentative]
     return None, (min(near, key=lambda d: d.sse_ratio) if near else None)
 
 
@@ -314,7 +265,7 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
     ``fit_levels`` and from the best ``n_best`` of the grid of ``(Coulomb force, limit)``
     ``pairs``, all in units of ``a_ref``, the limit bounded below by ``lowest`` of it (None:
     the limit held at its start). The best fit's limit, whatever the error it leaves, when it
-    clips at least :data:`LIMIT_MIN_CLIPPED` of the samples; else None."""
+    clips at least ``settings.limit_min_clipped`` of the samples; else None."""
     limit_params = ([] if lowest is None
                     else [Param(CL.I_IMAX, True, lowest * a_ref, 100.0 * a_ref, 1.0)])
     starts = []
@@ -354,14 +305,9 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         return None
     clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
     ratio = float(best.cost / fit.cost)
-    if clipped >= LIMIT_MIN_CLIPPED:
+    if clipped >= defaults().limit_min_clipped:
         return DriveLimit(level, clipped, ratio, best.model)
     return None
-
-
-LAW_PREFILTERS = (None, 1 / 4, 1 / 8, 1 / 16, 1 / 32)
-"""Prefilters the control law is fitted through, as fractions of the Nyquist frequency
-(None: unfiltered); see :func:`fit_law`."""
 
 
 def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxController:
@@ -400,7 +346,7 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
 def law_candidates(prep: Prepared) -> list[ArxController]:
     """The laws a run's effort is fitted to, among which its motion chooses.
 
-    One least-squares law per prefilter of :data:`LAW_PREFILTERS`
+    One least-squares law per prefilter of ``settings.law_prefilters``
     (:func:`~fricbench.sysid.diagnose.controllers.fit_arx_controller`). When the effort clips,
     each also with an exact integrator run clamped, as a PID's integral of the position error
     and as the two cascades it can be (a velocity PI integrating the velocity error,
@@ -419,7 +365,7 @@ def law_candidates(prep: Prepared) -> list[ArxController]:
     # integral (positional form, clamped): its unclipped samples cannot tell, its motion can
     forms = (False, True) if prep.saturation is not None else (False,)
     laws = []
-    for frac in LAW_PREFILTERS:
+    for frac in defaults().law_prefilters:
         for clamped in forms:
             try:
                 law = _law_through(prep, None if frac is None else frac * nyquist,
@@ -501,11 +447,6 @@ def _law_through(prep: Prepared, prefilter_hz: float | None, *, clamped: bool = 
     return replace(law, clamped=True) if clamped else law
 
 
-DELAY_GAIN = 0.8
-"""A command delay is given to the effort's loop when its free run with a Coulomb force leaves
-less than this share of the squared position error the loop without it leaves."""
-
-
 def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
                       ) -> tuple[ArxController, InverseDynamics]:
     """The run's control law and the drive's command delay, chosen together by the motion.
@@ -516,7 +457,7 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     each delay the plant is refitted to the effort shifted by it, and each law of
     :func:`law_candidates` is closed around it with a Coulomb force (:func:`fit_law`'s choice,
     under that delay). The delay whose best law leaves the least position error is kept when it
-    is clearly better (:data:`DELAY_GAIN`) than none. On the second simulator's thermal/21 (a
+    is clearly better (``settings.delay_gain``) than none. On the second simulator's thermal/21 (a
     cascade with a 3-sample delay, its current logged) the loop without a delay left 14.6 um,
     with it 7.3 um. The two are chosen together because each bends to the other: there, the
     law chosen without a delay (a cascade's clamp of the wrong integral rate) took 2 samples
@@ -545,7 +486,7 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
         # after its first tenth; a drive's delay acts over the whole run
         late.append(after[i])
     best = int(np.argmin(late))
-    if best > 0 and np.isfinite(late[best]) and late[best] < DELAY_GAIN * late[0]:
+    if best > 0 and np.isfinite(late[best]) and late[best] < defaults().delay_gain * late[0]:
         return best_law[best], cands[best]
     return best_law[0], idim
 
@@ -581,15 +522,15 @@ def fit_linear_with_effort(prep: Prepared) -> tuple[GreyBox, InverseDynamics, Bo
 
 def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
                        *, pid: bool = True,
-                       friction_starts: tuple[float, ...] = FRICTION_STARTS
+                       friction_starts: tuple[float, ...] | None = None
                        ) -> PositionFitResult | None:
     """The loop and a Coulomb force fitted together to the position (None: nothing could be
     simulated), from the linear loop and from the best standard loops, each with the Coulomb
     forces ``friction_starts`` (in units of ``bounds.force``; default
-    :data:`FRICTION_STARTS`).
+    ``settings.friction_starts``).
 
     With ``pid`` (the default) the best standard PID position loop is refined too and
-    replaces the cascade when it fits clearly better (:data:`PID_MARGIN`): a drive whose PID
+    replaces the cascade when it fits clearly better (``settings.pid_margin``): a drive whose PID
     has complex P-PI roots or a filtered derivative is no cascade. So are the loops the
     equation error finds with a Coulomb force (:func:`~.equation_error.loop_by_equation_error`),
     one per command delay of :func:`~.equation_error.delay_steps` (up to 3 ms), each refined with
@@ -601,6 +542,8 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     """
     cascades = starting_controllers(prep.inputs.loop_ts)
     pids = starting_pid_controllers(prep.inputs.loop_ts) if pid else []
+    if friction_starts is None:
+        friction_starts = defaults().friction_starts
     if not friction_starts:
         raise ValueError("friction_starts=(): expected at least one Coulomb force")
     loops = [linear] + [linear.copy(controller=c) for c in cascades + pids]
@@ -657,32 +600,18 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
             best = res
     # a PID position loop (integral on the position error, filtered derivative) when it fits
     # clearly better: a cascade reaches only the PIDs with real P-PI gains and no filter
-    if best_pid is not None and (best is None or best_pid.cost < PID_MARGIN * best.cost):
+    if best_pid is not None and (best is None or best_pid.cost < defaults().pid_margin * best.cost):
         best = best_pid
     return best
-
-
-FRICTION_RAISE = 10.0
-"""Factor the friction levels' bounds are raised by when the friction-aware fit's Coulomb force
-ends on its bound (:func:`friction_aware_fit_scaled`)."""
-
-
-SCALE_SPREAD = 100.0
-"""A force scale above this many times the reference's largest acceleration is checked
-against that acceleration's (:func:`friction_aware_fit_scaled`). Friction can be tens of times
-a slow motion's inertial force (the second simulator's posdep/28: 20 times, stribeck/28: 41
-times), and the fit at the acceleration's scale may then be the better fit of a wrong basin: at
-10, thermal/2 (a scale 38 times its acceleration) took a PID loop with its friction a thirtieth
-of the truth and a feedforward of 1.43 that stood in for the drift, and lost the drift."""
 
 
 def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
                               ) -> tuple[PositionFitResult | None, Bounds]:
     """:func:`friction_aware_fit`, and again with the friction levels' bounds
-    :data:`FRICTION_RAISE` times higher (:attr:`Bounds.friction_raise`) when its Coulomb force
+    ``settings.friction_raise`` times higher (:attr:`Bounds.friction_raise`) when its Coulomb force
     ended on its upper bound; the better fit and its bounds.
 
-    A force scale (the linear loop's virtual effort) more than :data:`SCALE_SPREAD` times the
+    A force scale (the linear loop's virtual effort) more than ``settings.scale_spread`` times the
     reference's largest acceleration is checked first: the fit is also run with the
     acceleration as the force scale, and the better fit's scale is the run's. The virtual
     effort is the linear loop's command on the measured position, and a linear loop fitted to
@@ -707,7 +636,7 @@ def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
     """
     fit = friction_aware_fit(linear, prep, bounds)
     a_ref = reference_acceleration(prep)
-    if 0.0 < SCALE_SPREAD * a_ref < bounds.force:
+    if 0.0 < defaults().scale_spread * a_ref < bounds.force:
         motion = replace(bounds, force=a_ref)
         other = friction_aware_fit(linear, prep, motion)
         if other is not None and (fit is None or other.cost < fit.cost):
@@ -717,7 +646,7 @@ def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
     fc = float(fit.model.plant[CL.I_FC])
     if get_effect("coulomb_friction").bounds(CL.I_FC, fc, bounds).bound_hit(fc) != "upper":
         return fit, bounds
-    raised = replace(bounds, friction_raise=bounds.friction_raise * FRICTION_RAISE)
+    raised = replace(bounds, friction_raise=bounds.friction_raise * defaults().friction_raise)
     refit = friction_aware_fit(linear, prep, raised)
     if refit is not None and refit.cost < fit.cost:
         return refit, raised
@@ -739,7 +668,7 @@ def _gain_on_bound(model: GreyBox, bounds: Bounds) -> str | None:
 
 def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter: int = 15,
                         *, pid: bool = True, fit: PositionFitResult | None = None,
-                        friction_starts: tuple[float, ...] = FRICTION_STARTS) -> GreyBox:
+                        friction_starts: tuple[float, ...] | None = None) -> GreyBox:
     """The loop gains identified together with a Coulomb friction force.
 
     Without an effort, a linear fit hardly sees the feedback gains: with feedforward the
@@ -760,3 +689,11 @@ def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_ite
     base = linear.copy(controller=loop)
     res = PositionFit(prep, position_params(base, bounds, controller=False)).run(base, 8)
     return res.model
+
+
+def __getattr__(name: str) -> tuple[float, ...]:
+    # ``FRICTION_STARTS``, which ``fricbench.predictors.greybox`` imports, is
+    # ``settings.friction_starts``, read when asked
+    if name == "FRICTION_STARTS":
+        return defaults().friction_starts
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

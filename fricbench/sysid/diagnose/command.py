@@ -264,10 +264,11 @@ def run(args: argparse.Namespace) -> int:
         return _run_open_loop(args, run_data, other, log, t_start)
     try:
         from fricbench.sysid.diagnose.diagnosis import diagnose
-        from fricbench.sysid.diagnose.search import SearchSettings
+        from fricbench.sysid.diagnose.settings import defaults
 
+        settings = dataclasses.replace(defaults(), max_steps=args.max_effects)
         result = diagnose(run_data, validate=other, force_unit=args.effort_unit,
-                          settings=SearchSettings(max_steps=args.max_effects),
+                          settings=settings,
                           compare_tf=args.tf, cutoff_hz=args.filter_hz, decim=args.decimate,
                           quantum=(None if args.quantum is None else
                                    args.quantum * position_unit(args.position_unit).to_si),

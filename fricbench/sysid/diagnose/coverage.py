@@ -17,21 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 
-__all__ = ["Coverage", "coverage", "REACH_QUANTILE", "REACH_MARGIN", "BEYOND_SHARE"]
-
-REACH_QUANTILE = 0.99
-"""The training run's reach is this quantile of its speed (and these quantiles of its
-position, low and high): a start-up transient or one overshoot is no range it covered."""
-
-REACH_MARGIN = 0.1
-"""A validation sample is beyond the training run's reach when its speed exceeds the reach
-by more than this fraction, or its position leaves the covered stroke by more than this
-fraction of that stroke."""
-
-BEYOND_SHARE = 0.05
-"""A warning is given when more than this share of the validation run's samples is beyond
-the reach (in speed or in position)."""
+__all__ = ["Coverage", "coverage"]
 
 
 @dataclass(frozen=True)
@@ -41,16 +29,16 @@ class Coverage:
     Attributes
     ----------
     speed_reach : float
-        The training run's speed reach (:data:`REACH_QUANTILE` of its filtered speed), SI.
+        The training run's speed reach (``settings.reach_quantile`` of its filtered speed), SI.
     speed_max_validation : float
         The validation run's largest filtered speed, SI.
     share_faster : float
-        Share of the validation samples faster than the reach by :data:`REACH_MARGIN`.
+        Share of the validation samples faster than the reach by ``settings.reach_margin``.
     stroke : tuple of float
-        The training run's covered positions (its :data:`REACH_QUANTILE` range), SI.
+        The training run's covered positions (its ``settings.reach_quantile`` range), SI.
     share_outside : float
         Share of the validation samples outside that range by more than
-        :data:`REACH_MARGIN` of its width.
+        ``settings.reach_margin`` of its width.
     """
 
     speed_reach: float
@@ -67,21 +55,23 @@ class Coverage:
                 "stroke_training_low_m": self.stroke[0],
                 "stroke_training_high_m": self.stroke[1],
                 "share_outside_stroke_pct": 100.0 * self.share_outside,
-                "reach_quantile": REACH_QUANTILE, "reach_margin": REACH_MARGIN}
+                "reach_quantile": defaults().reach_quantile,
+                "reach_margin": defaults().reach_margin}
 
     def warnings(self, prep: Prepared) -> list[str]:
         """What a user must know before reading the validation error (units of the log)."""
         unit = prep.run.logged_unit
         out = []
-        if self.share_faster > BEYOND_SHARE:
+        if self.share_faster > defaults().beyond_share:
             k, u = unit.velocity_per_si, unit.velocity_display
             out.append(f"the validation run moves faster than the training run did on "
                        f"{100 * self.share_faster:.0f} % of its samples (up to "
                        f"{k * self.speed_max_validation:.4g} {u}; the training run's "
-                       f"{100 * REACH_QUANTILE:.0f}th percentile is {k * self.speed_reach:.4g} "
+                       f"{100 * defaults().reach_quantile:.0f}th percentile is "
+                       f"{k * self.speed_reach:.4g} "
                        f"{u}): there the model's forces are extrapolated, and the validation "
                        "error tells as much about that as about the effects found")
-        if self.share_outside > BEYOND_SHARE:
+        if self.share_outside > defaults().beyond_share:
             k, u = unit.coarse_per_si, unit.coarse_display
             out.append(f"the validation run leaves the stroke the training run covered "
                        f"({k * self.stroke[0]:.4g} to {k * self.stroke[1]:.4g} {u}) on "
@@ -105,10 +95,12 @@ def coverage(train: Prepared, validation: Prepared) -> Coverage:
     """
     speed_t = np.abs(train.vf)
     speed_v = np.abs(validation.vf)
-    reach = float(np.quantile(speed_t, REACH_QUANTILE))
-    faster = float(np.mean(speed_v > (1.0 + REACH_MARGIN) * reach)) if reach > 0.0 else 0.0
-    lo, hi = (float(q) for q in np.quantile(train.x, [1.0 - REACH_QUANTILE, REACH_QUANTILE]))
-    margin = REACH_MARGIN * (hi - lo)
+    reach = float(np.quantile(speed_t, defaults().reach_quantile))
+    cfg = defaults()
+    faster = float(np.mean(speed_v > (1.0 + cfg.reach_margin) * reach)) if reach > 0.0 else 0.0
+    lo, hi = (float(q) for q in np.quantile(train.x, [1.0 - cfg.reach_quantile,
+                                                      cfg.reach_quantile]))
+    margin = cfg.reach_margin * (hi - lo)
     outside = float(np.mean((validation.x < lo - margin) | (validation.x > hi + margin)))
     return Coverage(speed_reach=reach, speed_max_validation=float(np.max(speed_v)),
                     share_faster=faster, stroke=(lo, hi), share_outside=outside)

@@ -16,7 +16,6 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.baselines import (
-    LIMIT_MARGIN,
     DriveLimit,
     LinearTF,
     drive_limits,
@@ -39,30 +38,13 @@ from fricbench.sysid.diagnose.models import (
 )
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare, substeps
-from fricbench.sysid.diagnose.search import SearchResult, SearchSettings, forward_selection
-from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
+from fricbench.sysid.diagnose.search import SearchResult, forward_selection
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.uncertainty import ModelUncertainty, model_uncertainty
-from fricbench.sysid.diagnose.verdict import FLOOR_FACTOR, Verdict, judge
+from fricbench.sysid.diagnose.verdict import Verdict, judge
 from fricbench.sysid.io import RunData
 
-__all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "INJECTED_EFFORT_SHARE",
-           "DiagnosisError", "LAW_MAX_RELERR_PCT"]
-
-INJECTED_EFFORT_SHARE = 0.05
-"""Share of the effort (rms) the controller law must leave unexplained before the remainder is
-treated as an injected input (test pulses) in free-run simulations. EMPS's pulse run leaves
-13 %. A few per cent are what a logged position that is not the controller's own feedback
-leaves (its noise, and in a semi-closed loop the motor-to-table difference): fed back as an
-input, that remainder would re-inject the very effect the diagnosis looks for (the drive's
-reaction to the backlash it saw on the motor side), so below 5 % it is not used."""
-
-
-SLIDING_SHARE = 0.05
-"""A sample slides when its speed exceeds this share of the run's largest (the report's
-"moving" samples use the same)."""
-
-MIN_SLIDING_SAMPLES = 20
-"""Fewer sliding samples than this give no sliding effort error (too few to mean anything)."""
+__all__ = ["diagnose", "DiagnosisResult", "RunEvaluation", "DiagnosisError"]
 
 
 @dataclass
@@ -303,32 +285,22 @@ class DiagnosisResult:
         return out
 
 
-LAW_MAX_RELERR_PCT = 25.0
-"""Largest relative error (%) of a control law identified from the effort that is still used
-to simulate the loop. Test pulses injected into the effort leave 10..15 % (EMPS's pulse run:
-13 %); an effort logged slower than the loop runs, or a controller that is not linear, leaves
-far more (34 % on a drive logged at 100 Hz)."""
-
-UNSTABLE_FACTOR = 10.0
-"""A free run whose rms error exceeds this multiple of the stroke has left the data: the loop
-is taken as unstable."""
-
-
 class DiagnosisError(ValueError):
     """No valid model of the run exists (every candidate loop diverges, say)."""
 
 
 def _runs_away(prep: Prepared, y: np.ndarray) -> bool:
-    """Whether a free run left the data: its rms error exceeds ``UNSTABLE_FACTOR`` strokes."""
-    return _rms(prep.x - y) > UNSTABLE_FACTOR * max(prep.stroke, prep.noise.rms)
+    """Whether a free run left the data: its rms error exceeds ``settings.unstable_factor``
+    strokes."""
+    return _rms(prep.x - y) > defaults().unstable_factor * max(prep.stroke, prep.noise.rms)
 
 
 def _law_unusable(relerr: float, prep: Prepared, y_lin: np.ndarray) -> str | None:
     """Why the control law identified from the effort cannot drive the simulations, or None."""
-    if relerr > LAW_MAX_RELERR_PCT:
+    if relerr > defaults().law_max_relerr_pct:
         return (f"the control law identified from the effort leaves {relerr:.0f} % of it "
-                f"unexplained (more than {LAW_MAX_RELERR_PCT:.0f} %): the effort may be logged "
-                "slower than the loop runs, or the controller is not linear")
+                f"unexplained (more than {defaults().law_max_relerr_pct:.0f} %): the effort may "
+                "be logged slower than the loop runs, or the controller is not linear")
     e = prep.x - y_lin
     if not np.all(np.isfinite(e)):
         return ("the control law identified from the effort closes an unstable loop with "
@@ -374,9 +346,10 @@ def _injected(ctrl: ArxController | CascadeController, prep: Prepared
     w = prep.u - ctrl.predict(inp.xr, inp.vr, prep.x, prep.u, prep.ts)
     # the first and last samples miss the law's history (the reference is extended at
     # constant velocity): a mismatch there is the start, not an injected input
-    edge = slice(_EDGE, -_EDGE) if w.shape[0] > 4 * _EDGE else slice(None)
+    n_edge = defaults().law_edge
+    edge = slice(n_edge, -n_edge) if w.shape[0] > 4 * n_edge else slice(None)
     share = float(np.sqrt(np.mean(w[edge]**2)) / max(np.sqrt(np.mean(prep.u[edge]**2)), 1e-300))
-    use = share > INJECTED_EFFORT_SHARE
+    use = share > defaults().injected_effort_share
     return (w if use else None), share, use
 
 
@@ -387,9 +360,6 @@ def _on_run(model: GreyBox, prep: Prepared, law: ArxController | None) -> GreyBo
     p = model.plant.copy()
     p[CL.I_IMAX] = prep.saturation.level if prep.saturation is not None else np.inf
     return model.copy(controller=law, plant=p)
-
-
-_EDGE = 8  # samples at each end of a run outside the identified law's reach
 
 
 def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
@@ -403,27 +373,11 @@ def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
         idim = InverseDynamics(prep, prep.u, delay=int(final.plant[CL.I_DELAY]))
         eb, ea = idim.relerr(linear.plant), idim.relerr(final.plant)
         speed = np.abs(idim.v_dec)
-        sliding = np.flatnonzero(speed > SLIDING_SHARE * float(np.max(speed, initial=0.0)))
-        if sliding.size >= MIN_SLIDING_SAMPLES:
+        sliding = np.flatnonzero(speed > defaults().sliding_share
+                                 * float(np.max(speed, initial=0.0)))
+        if sliding.size >= defaults().min_sliding_samples:
             sb, sa = idim.relerr(linear.plant, sliding), idim.relerr(final.plant, sliding)
     return RunEvaluation(prep, y_before, y_after, eb, ea, share, used, sb, sa)
-
-
-MODE_MARGIN = 0.5
-"""A run with an effort is diagnosed on its position alone when the final model of that
-diagnosis leaves less than this share of the squared free-run position error the effort's
-diagnosis leaves (the drive-limit rule's "below half")."""
-
-LAW_EXACT_PCT = 0.5
-"""A law identified from the effort within this relative error (%) is the controller's own,
-acting on the logged position at the loop's rate, and is kept without the comparison of
-:data:`MODE_MARGIN` (a linear loop's free run also carries the noise the controller fed back,
-which a loop fitted to the position can trade for lower gains). On the second simulator,
-drives logged at their rate on the encoder they read leave 0.1 %; semi-closed loops, slower
-logs and delays 0.4-20 %. A log slower than :data:`LOOP_TS` never counts as exact: its law runs
-on samples the drive's loop did not stop at (a 1 kHz PID logged at 100 Hz was reproduced within
-0.48 %, and its loop at 100 Hz left 290 times the noise floor where the position's loop, run at
-1 kHz, left 37)."""
 
 
 @dataclass
@@ -470,7 +424,7 @@ def _clamped_words(ctrl: ArxController | CascadeController) -> str:
 def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDynamics,
                 bounds: Bounds, ctrl_err: float, y_lin: np.ndarray,
                 injected: tuple[np.ndarray | None, float | None, bool], force_unit: str,
-                settings: SearchSettings | None, log: Callable[[str], None],
+                settings: DiagnoseSettings, log: Callable[[str], None],
                 t0: float) -> _ModeFit:
     """The search with the law identified from the effort and the inverse dynamics."""
     w, share, used = injected
@@ -493,44 +447,6 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
     train = _evaluate(linear, search.final.model, prep)
     return _ModeFit("effort", force_unit, prep, linear, search, train, notes, [], laws,
                     bounds=bounds)
-
-
-EFFORT_MAX_STEP = 1e-4
-"""Longest plant integration step of the effort's diagnosis (s), finer than the position's
-(:data:`fricbench.sysid.diagnose.prepared.MAX_STEP`). There, forces are fitted to the effort by
-inverse dynamics, which no integration step touches; the free runs only judge them (an effect
-must not make the free-run position worse) and fit what the effort cannot show (output
-effects, and forces once the effort shows no more). A stick-slip motion integrated with a
-coarse step meets its stops late, and those judges then blame the friction for the
-integrator's error: on the second simulator's stribeck/19 (a 1 kHz cascade, its current
-logged), the asymmetric friction fitted to the position beside Coulomb and Stribeck friction
-made the held-out position error worse at 2 substeps per sample (x1.65) and cut it at 10
-(x0.22); at 2, the Stribeck friction was then pruned and a false backlash named. The position's
-diagnosis fits every parameter through free runs, and its cost grows with the substeps: it
-keeps the coarser step (a finer one on every run moved its PID loops; see ``MAX_STEP``)."""
-
-LOOP_TS = 1e-3
-"""Period of the model's loop when the log is slower (s): drives close their position loop at
-1 kHz or faster, and a loop simulated at a 100 Hz log's rate cannot reproduce one (a position
-mode run logged at 2 ms or slower is also fitted with a loop at this period, see
-:func:`_loop_base`)."""
-
-LOOP_RATE_MARGIN = 0.5
-"""The faster loop of :data:`LOOP_TS` is kept only when its fits (the loop with friction, and
-with the drive's limit when one shows) leave less than this share of the squared error of the
-loop at the log's rate: the drive-limit rule's and the mode comparison's "below half". The
-effects are judged with the loop the base fit chose, and a faster loop that fits about as well
-only costs time. On the 28 runs of the second simulator's seeds 1-14 logged at 100 Hz, the
-fast loop left from 0.003 to 665 times the slow loop's error (median 1.0; six below half, two
-below a tenth); at 0.1 (this margin before) a semi-closed PID whose fast loop left 0.14 was run
-at 100 Hz and its backlash was missed
-(11.1 um left, floor 0.04 um); at 0.5 it is found (0.98 um), and no run of the 28 changes its
-outcome otherwise."""
-
-LOOP_RATE_BOTH = 1.0
-"""When the faster loop's fits leave less than this share of the slow loop's squared error
-(but not :data:`LOOP_RATE_MARGIN`), the search runs with both loops and keeps the faster one
-when its final model leaves less than :data:`LOOP_RATE_MARGIN` of the other's squared error."""
 
 
 @dataclass
@@ -642,12 +558,7 @@ def _limited(prep: Prepared, linear: GreyBox, bounds: Bounds, limit: DriveLimit,
     return refit[0], refit[1], min(cost, limit.sse_ratio * fit_sse)
 
 
-NO_FILTER_SHARE = 0.01
-"""A PID's derivative filter whose time constant is below this share of the loop period is
-reported as none (it delays the derivative by less than a hundredth of a period)."""
-
-
-def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
+def _fit_position(run: RunData, prep: Prepared, settings: DiagnoseSettings,
                   log: Callable[[str], None], t0: float,
                   effort_check: InverseDynamics | None = None) -> _ModeFit:
     """The search on the position alone: a loop fitted to the position, forces per unit mass
@@ -655,10 +566,10 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
     which a force effect must not contradict)."""
     log("linear model: cascade controller on a unit mass, output-error fit")
     slow = _loop_base(prep, run.n_reversals)
-    n_fast = int(round(prep.ts / LOOP_TS))
+    n_fast = int(round(prep.ts / settings.loop_ts))
     fast = None
     if n_fast >= 2:
-        # a log slower than a drive's loop: the loop is also fitted at LOOP_TS, and kept when
+        # a log slower than a drive's loop: the loop is also fitted at settings.loop_ts, kept when
         # its fit (with friction and the drive's limit) is clearly closer to the data
         try:
             fast = _loop_base(prep.with_loop(n_fast), run.n_reversals)
@@ -666,13 +577,13 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
             fast = None
     fast_note = None
     other = None
-    if fast is not None and fast.cost < LOOP_RATE_MARGIN * slow.cost:
+    if fast is not None and fast.cost < settings.loop_rate_margin * slow.cost:
         log(f"  loop simulated at {n_fast} periods per logged sample")
         main = fast
         fast_note = _fast_loop_note(prep, n_fast, fast.cost, slow.cost, "with friction")
     else:
         main = slow
-        if fast is not None and fast.cost < LOOP_RATE_BOTH * slow.cost:
+        if fast is not None and fast.cost < settings.loop_rate_both * slow.cost:
             other = fast
     best = _search_position(main, run, settings, log, t0, effort_check, fast_note=fast_note)
     best_base = main
@@ -685,7 +596,7 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
             f"({100 * other.cost / slow.cost:.2g} % of the squared error): the search also "
             "runs with it")
         second = _search_position(other, run, settings, log, t0, effort_check)
-        if second.finite and second.sse < LOOP_RATE_MARGIN * best.sse:
+        if second.finite and second.sse < settings.loop_rate_margin * best.sse:
             second.notes.insert(1, _fast_loop_note(prep, n_fast, second.sse, best.sse,
                                                    "with the effects found"))
             log(f"  kept: the loop at {n_fast} periods per logged sample")
@@ -700,7 +611,7 @@ def _fit_position(run: RunData, prep: Prepared, settings: SearchSettings | None,
             "search also runs with it")
         limited = _search_position(tentative, run, settings, log, t0, effort_check,
                                    fast_note=fast_note)
-        if limited.finite and limited.sse < LIMIT_MARGIN * best.sse:
+        if limited.finite and limited.sse < settings.limit_margin * best.sse:
             limited.notes.append(
                 f"the drive's limit is kept although the loop with friction alone fitted about "
                 f"as well without it: with the effects found the diagnosis with it leaves "
@@ -721,7 +632,7 @@ def _fast_loop_note(prep: Prepared, n_fast: int, cost: float, slow_cost: float, 
             "position error of a loop at the log's rate)")
 
 
-def _search_position(base: _LoopBase, run: RunData, settings: SearchSettings | None,
+def _search_position(base: _LoopBase, run: RunData, settings: DiagnoseSettings,
                      log: Callable[[str], None], t0: float,
                      effort_check: InverseDynamics | None, fast_note: str | None = None
                      ) -> _ModeFit:
@@ -768,7 +679,8 @@ def _search_position(base: _LoopBase, run: RunData, settings: SearchSettings | N
     if isinstance(final.controller, CascadeController) and final.controller.is_pid:
         g = final.controller.pid_gains(prep.inputs.loop_ts)
         # a filter pole on its lower bound 0 reads as a time constant of a few nanoseconds
-        flt = ("no derivative filter" if g["tf_s"] < NO_FILTER_SHARE * prep.inputs.loop_ts
+        flt = ("no derivative filter"
+               if g["tf_s"] < defaults().no_filter_share * prep.inputs.loop_ts
                else f"derivative filter {1e3 * g['tf_s']:.3g} ms")
         laws["train"] = ("a PID position loop fitted to the training run's position with "
                          f"friction (per unit mass: P {g['p_1_s2']:.4g} 1/s^2, I "
@@ -785,7 +697,7 @@ def _search_position(base: _LoopBase, run: RunData, settings: SearchSettings | N
 
 
 def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: float,
-               settings: SearchSettings | None, log: Callable[[str], None],
+               settings: DiagnoseSettings, log: Callable[[str], None],
                t0: float, idim: InverseDynamics | None = None) -> _ModeFit:
     """The effort's diagnosis, or the position's when it predicts the position clearly better.
 
@@ -794,7 +706,7 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
     loop runs, a position fed back from another sensor (a semi-closed loop) or a delay before
     the force break that, and the law's loop then predicts the position worse than a loop
     fitted to the position with friction. The position decides (the issue's fallback to the
-    position-only search), by :data:`MODE_MARGIN`, and the report says why.
+    position-only search), by ``settings.mode_margin``, and the report says why.
     """
     n = effort.prep.x.shape[0]
     sse_e = effort.sse
@@ -806,7 +718,7 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
         e = effort.prep.x - y_e
         sse_e = float(np.sum(e**2)) if np.all(np.isfinite(e)) else math.inf
     rms_e = math.sqrt(sse_e / n)
-    if rms_e <= FLOOR_FACTOR * effort.search.floor:
+    if rms_e <= settings.floor_factor * effort.search.floor:
         return effort  # at the noise floor: nothing a loop fitted to the position could add
     log("checking the effort's loop against a loop fitted to the position alone")
     try:
@@ -822,14 +734,15 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
     else:
         eff["diverged"] = True
     comparison: dict[str, object] = {
-        "rule": f"the position alone when its squared error < {MODE_MARGIN:g} x the effort's",
+        "rule": f"the position alone when its squared error < {settings.mode_margin:g} x "
+                "the effort's",
         "effort": eff}
     if not pos.finite:
         comparison["position"] = {"effects": _effects(pos), "diverged": True}
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     comparison["position"] = {"effects": _effects(pos), "position_rms_m": rms_p}
-    if not pos.sse < MODE_MARGIN * sse_e:
+    if not pos.sse < settings.mode_margin * sse_e:
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     pos.comparison = dict(comparison, chosen="position")
@@ -860,7 +773,7 @@ def _effects(fit: _ModeFit) -> list[str]:
 
 
 def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
-             settings: SearchSettings | None = None, compare_tf: bool = False,
+             settings: DiagnoseSettings | None = None, compare_tf: bool = False,
              cutoff_hz: float | None = None, decim: int | None = None,
              quantum: float | None = None,
              log: Callable[[str], None] | None = None) -> DiagnosisResult:
@@ -875,8 +788,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     force_unit : str
         Unit of the effort column, used to label force parameters (``"N"``, ``"A"``, ``"V"``).
         Without an effort, forces are per unit mass (``m_s2``).
-    settings : SearchSettings, optional
-        Thresholds of the forward selection.
+    settings : DiagnoseSettings, optional
+        The diagnosis' settings (default: :func:`~fricbench.sysid.diagnose.settings.defaults`).
     compare_tf : bool
         Also fit the black-box transfer function of ``fricbench.sysid.tf_fit`` and report its
         position error (slow on long runs).
@@ -910,6 +823,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     if decim is not None and (isinstance(decim, bool) or not isinstance(decim, (int, np.integer))
                               or decim < 1):
         raise ValueError(f"decim={decim!r}: expected an integer >= 1 (1: no decimation) or None")
+    settings = defaults() if settings is None else settings
     log = log or (lambda _s: None)
     t0 = time.perf_counter()
     prep = prepare(run, cutoff_hz=cutoff_hz, decim=decim, quantum=quantum)
@@ -931,9 +845,9 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     if prep.u is not None:
         log("linear model: controller law from the effort, inverse dynamics u = M a + B v")
         linear, idim, bounds, ctrl_err = fit_linear_with_effort(prep)
-        # the effort's free runs judge its forces at a finer step (see EFFORT_MAX_STEP)
+        # the effort's free runs judge its forces at a finer step (see settings.effort_max_step)
         prep = dataclasses.replace(prep, n_sub=max(prep.n_sub, substeps(
-            prep.inputs.loop_ts, 1, max_step=EFFORT_MAX_STEP)))
+            prep.inputs.loop_ts, 1, max_step=settings.effort_max_step)))
         w, share, used = _injected(linear.controller, prep)
         y_lin, _ = simulate_position(linear, prep, w)
         why = _law_unusable(ctrl_err, prep, y_lin)
@@ -946,8 +860,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         else:
             fit = _fit_effort(run, prep, linear, idim, bounds, ctrl_err, y_lin,
                               (w, share, used), force_unit, settings, log, t0)
-            if (ctrl_err > LAW_EXACT_PCT or not fit.finite
-                    or int(round(prep.ts / LOOP_TS)) >= 2):
+            if (ctrl_err > settings.law_exact_pct or not fit.finite
+                    or int(round(prep.ts / settings.loop_ts)) >= 2):
                 fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0, idim)
                 if fit.mode == "position" and fit.comparison is not None:
                     # what the per-unit-mass forces are in the effort's unit: the mass the

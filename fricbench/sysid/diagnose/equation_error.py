@@ -36,27 +36,16 @@ from fricbench.sysid.diagnose.leastsq import solve_ls, sumsq
 from fricbench.sysid.diagnose.models import GreyBox
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.diagnose.signals import decimate_columns
 
-__all__ = ["EquationErrorFit", "loop_by_equation_error", "FILTER_STEPS", "DELAY_STEPS",
-           "MAX_DELAY_S", "delay_steps"]
-
-FILTER_STEPS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)
-"""Time constants of the derivative filter tried, in log samples (0: no filter)."""
-
-DELAY_STEPS = (0, 1, 2, 3)
-"""Command delays tried, in log samples (a drive's computation and power stage)."""
-
-MAX_DELAY_S = 3.0e-3
-"""Longest command delay a model is given, s: a drive's computation and power stage delay its
-command by a few periods of a fast loop. A log at 100 Hz fitted with a loop at its own rate
-took one of 10 ms (a better in-sample fit of a loop that cannot be the drive's) and lost the
-friction its delay-free loop found (control/2 and thermal/2 of the second simulator)."""
+__all__ = ["EquationErrorFit", "loop_by_equation_error", "delay_steps"]
 
 
 def delay_steps(ts: float) -> tuple[int, ...]:
-    """The delays of :data:`DELAY_STEPS` a loop of period ``ts`` (s) may have."""
-    return tuple(d for d in DELAY_STEPS if d * ts <= MAX_DELAY_S * (1.0 + 1e-9))
+    """The delays of ``settings.delay_steps`` a loop of period ``ts`` (s) may have."""
+    cfg = defaults()
+    return tuple(d for d in cfg.delay_steps if d * ts <= cfg.max_delay_s * (1.0 + 1e-9))
 
 _FRICTION = ("coulomb_friction", "stribeck_friction")
 
@@ -116,12 +105,6 @@ def _command(ctrl: CascadeController, cols: dict[str, np.ndarray], steps: float,
     return ctrl.wv * (e_v + integral) + ctrl.kaff * cols["ar"]
 
 
-KI_KVFF_MIN = 0.02
-"""Smallest ``|kvff - 1|`` from which the velocity integral's rate ``ki`` is read off the
-regression: ``ki`` only shows through the integral of ``(kvff - 1) v_r``; nearer 1 the law is
-taken for a PID (with ``kvff = 1`` a P-PI cascade is one: ``kp' = kp + ki``, ``kpi = ki kp``)."""
-
-
 def _law(coef: np.ndarray, pole: float) -> CascadeController:
     """The law of one regression's coefficients (``wv kp'``, ``wv kvff``, ``wv``,
     ``wv (ki kp + kpi)``, ``kaff``, the integral's start, ``wv ki (kvff - 1)``; ``kp' = kp +
@@ -130,7 +113,7 @@ def _law(coef: np.ndarray, pole: float) -> CascadeController:
     out positive, else a PID."""
     wv = float(coef[2])
     kp_all, kvff, k_se = float(coef[0]) / wv, float(coef[1]) / wv, float(coef[3]) / wv
-    if abs(kvff - 1.0) >= KI_KVFF_MIN:
+    if abs(kvff - 1.0) >= defaults().ki_kvff_min:
         ki = float(coef[6]) / (wv * (kvff - 1.0))
         kp = kp_all - ki
         if ki > 0.0 and kp > 0.0:
@@ -180,12 +163,12 @@ def _plant_by_equation_error(prep: Prepared, b: Bounds, u: np.ndarray, delay: in
 
 def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _FRICTION[:1],
                            *, n_best: int = 2, mask: np.ndarray | None = None,
-                           delays: Sequence[int] = DELAY_STEPS) -> list[EquationErrorFit]:
+                           delays: Sequence[int] | None = None) -> list[EquationErrorFit]:
     """The best loops with friction by equation error over the filter and delay grids.
 
     Two stages: the PID gains, the damping and a Coulomb level together, on the decimated
-    sliding rows, for every derivative filter of :data:`FILTER_STEPS` and command delay of
-    :data:`DELAY_STEPS`; then, under each of the ``n_best`` loops, the damping and the friction
+    sliding rows, for every derivative filter of ``settings.filter_steps`` and command delay of
+    ``settings.delay_steps``; then, under each of the ``n_best`` loops, the damping and the friction
     of ``effects`` again at the full rate (:func:`_plant_by_equation_error`). The damping and
     the derivative gain are nearly collinear (both act on the velocity): the loop keeps their
     sum, the second stage splits what the loop leaves.
@@ -204,7 +187,7 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
         The samples the fit may use (a training fold: a start for a held-out test must not
         have seen the held-out samples); default all.
     delays : sequence of int
-        Command delays tried, log samples (default :data:`DELAY_STEPS`; a model whose delay is
+        Command delays tried, log samples (default ``settings.delay_steps``; a model whose delay is
         already set gives its own).
 
     Returns
@@ -217,7 +200,7 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
         raise ValueError(f"effects={effects!r}: expected {_FRICTION[:1]!r} or {_FRICTION!r}")
     if isinstance(n_best, bool) or not isinstance(n_best, int) or n_best < 1:
         raise ValueError(f"n_best={n_best!r}: expected an integer >= 1")
-    delays = tuple(delays)
+    delays = tuple(defaults().delay_steps if delays is None else delays)
     if not delays or any(isinstance(d, bool) or not isinstance(d, (int, np.integer)) or d < 0
                          for d in delays):
         raise ValueError(f"delays={delays!r}: expected one or more integers >= 0")
@@ -249,7 +232,7 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
     plant = decimate_columns(np.column_stack([-prep.vf, -np.sign(prep.vf)]), prep.decim)[rows]
     fixed = lowpass(np.column_stack([e, cols["s_e"], inp.ar, np.ones_like(e)]))
     best: dict[int, tuple[float, CascadeController, float]] = {}
-    for steps in FILTER_STEPS:
+    for steps in defaults().filter_steps:
         pole = steps / (steps + 1.0)
         f_vr = _first_order(inp.vr, pole)
         filt = lowpass(np.column_stack([f_vr, _first_order(cols["dx"], pole),

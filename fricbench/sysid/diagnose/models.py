@@ -33,6 +33,7 @@ from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.leastsq import bounded_least_squares, matvec, solve_ls, sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.diagnose.signals import (
     decimate_columns,
     fold_blocks,
@@ -45,13 +46,6 @@ __all__ = ["GreyBox", "simulate_position", "simulate_models", "simulate_inputs",
 class NoStartError(ValueError):
     """An effect's nonlinear parameter has no start on this run (it cannot be fitted)."""
 
-
-KI_MIN_RATIO = 0.02
-"""Smallest integral rate of the cascade model, as a fraction of the velocity-loop gain."""
-
-PID_KPI_MIN_RATIO = 1.0e-3
-"""Smallest position-error integral of the PID model, as a fraction of ``wv^2`` (it stays a
-PID: an integral action that vanished would let friction imitate backlash)."""
 
 _DIVERGED = 1.0e3  # residual (in noise-floor units) given to samples of a diverged simulation
 
@@ -257,7 +251,7 @@ def position_params(model: GreyBox, b: Bounds, *, controller: bool,
         # identifiable, and a loop without it lets Coulomb friction imitate backlash),
         # feedforward up to 1.5
         rp, ri = c.kp / c.wv, c.ki / c.wv
-        lim = {"wv": (0.03 / ts, 2.0 / ts), "kp": (0.02, 2.0), "ki": (KI_MIN_RATIO, 0.5),
+        lim = {"wv": (0.03 / ts, 2.0 / ts), "kp": (0.02, 2.0), "ki": (defaults().ki_min_ratio, 0.5),
                "kvff": (0.0, 1.5), "kaff": (0.0, 1.5)}
         if controller_box is not None:
             f = float(controller_box)
@@ -275,7 +269,7 @@ def position_params(model: GreyBox, b: Bounds, *, controller: bool,
             # 2 wv^2: beyond P D an integral destabilises the loop) and its derivative
             # through a filter of up to 20 samples (a pole of 0.95); no velocity-loop integral
             rpi = c.kpi / c.wv**2
-            lim["kpi"] = (PID_KPI_MIN_RATIO, 2.0)
+            lim["kpi"] = (defaults().pid_kpi_min_ratio, 2.0)
             lim["vel_pole"] = (0.0, 0.95)
             if controller_box is not None:
                 f = float(controller_box)
@@ -356,10 +350,6 @@ class PositionFitResult:
     jac_rows: np.ndarray | None = field(default=None, repr=False)
 
 
-TRUST_WALKS = 3
-"""How many times :meth:`PositionFit.run` moves a trust region a parameter ended on."""
-
-
 class PositionFit:
     """Output-error least squares of selected parameters on the measured position.
 
@@ -406,14 +396,14 @@ class PositionFit:
 
         A parameter whose bounds are a trust region (:attr:`Param.trust`) and that ends on
         one is fitted again with the region moved to its end point, up to
-        :data:`TRUST_WALKS` times, while the cost falls. A spectral period off by more than
+        ``settings.trust_walks`` times, while the cost falls. A spectral period off by more than
         the region's width otherwise stays on its edge, and another effect takes up the beat
         of the two periods along the stroke (the second simulator's cogging/24: a period 4 %
         long, and a friction varying along the stroke named beside it).
         """
         res = self._run_once(model, max_iter)
         params = self.params
-        for _ in range(TRUST_WALKS):
+        for _ in range(defaults().trust_walks):
             moved = [p.recentred(p.get(res.model)) if p.trust and p.on_bound(p.get(res.model))
                      else p for p in params]
             if all(a is b for a, b in zip(moved, params, strict=True)):

@@ -41,18 +41,15 @@ from fricbench.sysid.diagnose.criterion import (
     parameter_covariance,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, size_entries
-from fricbench.sysid.diagnose.effects.compliance import ZETA_RANGE
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
-from fricbench.sysid.diagnose.parameters import BOUND_TOLERANCE
 from fricbench.sysid.diagnose.selection import Scored, select
-from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.signals import noise_floor
-from fricbench.sysid.diagnose.verdict import HELDOUT_GAIN
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
            "print_open_loop_summary", "simulate_model", "free_run_errors",
-           "periodic_statistics", "free_run_floor", "PERIODIC_FLOOR_FACTOR"]
+           "periodic_statistics", "free_run_floor"]
 
 BASE_EFFECTS: tuple[str, ...] = ("coulomb_friction", "force_offset")
 """Effects of every open-loop model (with the mass and the viscous damping)."""
@@ -64,9 +61,6 @@ CANDIDATE_EFFECTS: tuple[str, ...] = ("asymmetric_friction", "stribeck_friction"
 DATA_SHAPED: tuple[str, ...] = ("compliance", "stribeck_friction")
 """Effects whose shape (a resonance and its damping, a Stribeck velocity) is fitted too, from
 starts found in the data (:meth:`Effect.open_loop_starts`)."""
-
-N_DATA_STARTS = 2
-"""Starts from the data kept (the best by free-run error) for an effect in ``DATA_SHAPED``."""
 
 Log = Callable[[str], None]
 
@@ -207,7 +201,7 @@ def _bounds(i: int, ts: float, sc: dict[str, float]) -> tuple[float, float]:
         # what the samples can show: up to 0.45 x the sampling rate
         return 0.5, 0.45 / ts
     if i == PL.COMP_ZETA:
-        return ZETA_RANGE
+        return defaults().compliance_zeta_range
     if i == PL.M:
         return 1e-12, np.inf
     if i in (PL.FC, PL.FS_EXCESS):
@@ -389,7 +383,7 @@ def _data_starts(name: str, rows: list[np.ndarray], effort: np.ndarray, y: np.nd
                  ts: float, segments: Sequence[tuple[int, int]], n_init: int,
                  sel: np.ndarray) -> list[np.ndarray]:
     """Rows where effect ``name`` is off get its starts from the data (the training samples
-    ``sel``); of those, the best :data:`N_DATA_STARTS` by free-run error are kept."""
+    ``sel``); of those, the best ``settings.n_data_starts`` by free-run error are kept."""
     eff = get_effect(name)
     size = next(i for i in eff.parameters if i not in eff.shape_parameters)
     found = eff.open_loop_starts(effort[sel], y[sel], ts)
@@ -406,7 +400,7 @@ def _data_starts(name: str, rows: list[np.ndarray], effort: np.ndarray, y: np.nd
     if not expanded:
         return keep or rows
     res = _segments_residual(np.stack(expanded), effort, y, ts, segments, n_init)
-    order = np.argsort(np.sum(res ** 2, axis=1))[:N_DATA_STARTS]
+    order = np.argsort(np.sum(res ** 2, axis=1))[:defaults().n_data_starts]
     return keep + [expanded[int(i)] for i in order]
 
 
@@ -448,29 +442,16 @@ def _violation(effects: tuple[str, ...], fitted: dict[int, np.ndarray], ts: floa
 
 def _on_bound(i: int, value: float, ts: float, sc: dict[str, float]) -> float | None:
     """The edge of entry ``i``'s range that ``value`` ended on (within
-    :data:`~fricbench.sysid.diagnose.parameters.BOUND_TOLERANCE` of the span), or None; only
+    ``settings.bound_tolerance`` of the span), or None; only
     a range with two finite edges (a physical range: a Stribeck velocity, a resonance) has
     edges to end on."""
     lo, hi = _bounds(i, ts, sc)
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return None
     for edge in (lo, hi):
-        if abs(value - edge) <= BOUND_TOLERANCE * max(abs(edge), hi - lo):
+        if abs(value - edge) <= defaults().bound_tolerance * max(abs(edge), hi - lo):
             return edge
     return None
-
-
-PERIODIC_FLOOR_FACTOR = 3.0
-"""The open-loop verdict's floor: a periodic run whose free-run error is within this factor of
-the noise between its periods is at the noise floor (the search itself stops on the criterion,
-not on a floor).
-
-A free-run floor is what the current model itself would make from a noisy start; a model fitted on
-one block (its parameters bent by that block's noisy start) and run on another makes about
-twice that (measured on a simulated two-mass run: the right structure's held-out error 2.3
-times its floor, the true parameters' 1.4 times), and a flexible effect added there fits
-noise (a Stribeck term cut that run's held-out error by 13 %). Three times the floor is also
-the lower bound of the closed loop's prediction floor, in units of the sensor noise."""
 
 
 def _white_noise(e: np.ndarray, ts: float) -> float:
@@ -786,7 +767,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     at_floor = False
     if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
         ratio = rms / per["noise_between_periods"]
-        at_floor = ratio <= PERIODIC_FLOOR_FACTOR
+        at_floor = ratio <= settings.periodic_floor_factor
         residual = ("at the noise floor (within 3x the noise between periods)" if at_floor
                     else f"free-run error {ratio:.3g}x the noise between periods: the drift of "
                          "the rigid-body mode integrates what the model misses")
@@ -799,7 +780,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
         held = _evaluate(fit.model, lin, validate[1], validate[2], ts, n_init)["position"]
         name = "validation"
     assert isinstance(held, dict)
-    fell = float(held["rms_after"]) < (1.0 - HELDOUT_GAIN) * float(held["rms_before"])
+    fell = float(held["rms_after"]) < (1.0 - settings.heldout_gain) * float(held["rms_before"])
     effects = list(fit.model.effects)
     if effects and fell:
         verdict, reason = "explained", (f"{', '.join(effects)} added to the linear rigid body; "
@@ -807,7 +788,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     elif effects:
         verdict, reason = "not_explained", (f"{', '.join(effects)} added, but the {name} run's "
                                             "free-run position error did not fall by more "
-                                            f"than {100 * HELDOUT_GAIN:.0f} %")
+                                            f"than {100 * settings.heldout_gain:.0f} %")
     elif at_floor:
         verdict, reason = "nothing_to_explain", "the linear rigid body is at the noise floor"
     else:

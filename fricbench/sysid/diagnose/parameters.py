@@ -12,18 +12,12 @@ import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
+from fricbench.sysid.diagnose.settings import defaults
+
 if TYPE_CHECKING:
     from fricbench.sysid.diagnose.models import GreyBox
 
-__all__ = ["Param", "Bounds", "BOUND_TOLERANCE"]
-
-BOUND_TOLERANCE = 1e-3
-"""A parameter within this fraction of a bound (of the span; of the bound itself for a
-log-scaled one) ended on it (:meth:`Param.bound_hit`). The trust-region solver keeps its
-iterates strictly inside the box and stops after a few tens of evaluations, so a parameter
-pressed against a bound ends a little inside it: on the second simulator's posdep/28 a
-compliance's damping ratio ended at 0.29996 against its bound 0.3 (1.5e-4 inside) and was
-named; 1e-4 let it through."""
+__all__ = ["Param", "Bounds"]
 
 
 @dataclass(frozen=True)
@@ -69,10 +63,12 @@ class Param:
         t = self.to_theta(value)
         return t <= lo + tol * (hi - lo) or t >= hi - tol * (hi - lo)
 
-    def bound_hit(self, value: float, tol: float = BOUND_TOLERANCE) -> str | None:
+    def bound_hit(self, value: float, tol: float | None = None) -> str | None:
         """``"upper"`` or ``"lower"`` when ``value`` ended on that physical bound (within
-        ``tol``, see :data:`BOUND_TOLERANCE`), else None. A lower bound of 0 is a value a
-        parameter has (no friction, no feedforward), not a bound it was pushed to."""
+        ``tol``; default ``settings.bound_tolerance``), else None. A lower bound of 0 is a value
+        a parameter has (no friction, no feedforward), not a bound it was pushed to."""
+        if tol is None:
+            tol = defaults().bound_tolerance
         span = self.hi - self.lo
         if not (math.isfinite(span) and span > 0.0):
             return None

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fricbench.sysid.diagnose.controllers import LoopInputs
+from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.diagnose.signals import (
     NoiseFloor,
     Saturation,
@@ -22,37 +23,18 @@ from fricbench.sysid.diagnose.signals import (
 )
 from fricbench.sysid.io import RunData
 
-__all__ = ["Prepared", "prepare", "MIN_SLIDING_ROWS", "MAX_STEP", "N_SUB_MIN", "substeps"]
-
-MIN_SLIDING_ROWS = 60
-"""Decimated rows away from rest that are enough for the inverse dynamics (30 per fold), however
-small a share of the run they are. Below this count and below a fifth of the run, every row is
-used: the rest test has failed (a step reference, whose largest speed is a spike)."""
-
-N_SUB_MIN = 2
-"""Fewest plant substeps per loop period of the diagnosis's simulations."""
-
-MAX_STEP = 1e-3
-"""Longest plant integration step of the diagnosis's simulations (s), the period of a drive's
-loop (:data:`fricbench.sysid.diagnose.diagnosis.LOOP_TS`). A stick-slip motion integrated with
-a fixed step meets each stop a fraction of a step late, and what that leaves grows with the
-step: with the true loop and the true Coulomb and Stribeck friction of two 1 kHz runs of the
-tests' second simulator (which integrates with exact stop instants), the rms left at 2 / 5 / 10
-/ 20 substeps per sample was 19.9 / 5.65 / 0.59 / 0.53 um (noise floor 0.024 um) and 6.85 /
-0.18 / 0.61 / 0.72 um (floor 0.135 um). Two substeps of a 10 ms log (a 5 ms step) missed the
-stiction of two of its 100 Hz runs that a 1 ms step names. A finer step everywhere was tried
-and not kept: at up to 10 substeps per 1 kHz sample, the loops fitted with friction to PID runs
-moved, and drifts and backlashes found before were lost (and the 40,000-sample benchmark slows
-in proportion)."""
+__all__ = ["Prepared", "prepare", "substeps"]
 
 
-def substeps(ts: float, n_loop: int = 1, max_step: float = MAX_STEP) -> int:
+def substeps(ts: float, n_loop: int = 1, max_step: float | None = None) -> int:
     """Plant substeps per loop period for a log sampled every ``ts`` seconds whose loop runs
-    ``n_loop`` times per sample: enough for a step of at most ``max_step`` (s), and never
-    fewer than :data:`N_SUB_MIN`."""
+    ``n_loop`` times per sample: enough for a step of at most ``max_step`` (s; default
+    ``settings.max_step``), and never fewer than ``settings.n_sub_min``."""
+    if max_step is None:
+        max_step = defaults().max_step
     loop_ts = float(ts) / max(int(n_loop), 1)
     # a sample time read from a time column carries rounding: 10.000001 steps are 10
-    return max(N_SUB_MIN, math.ceil(loop_ts / max_step - 1e-6))
+    return max(defaults().n_sub_min, math.ceil(loop_ts / max_step - 1e-6))
 
 
 @dataclass
@@ -133,11 +115,11 @@ class Prepared:
         if n_loop == self.inputs.n_loop:
             return self
         # the integration step is a time step: the substeps per logged sample are kept, spread
-        # over the loop's periods (at least N_SUB_MIN each)
+        # over the loop's periods (at least settings.n_sub_min each)
         per_sample = self.n_sub * self.inputs.n_loop
         return dataclasses.replace(
             self, inputs=dataclasses.replace(self.inputs, n_loop=n_loop),
-            n_sub=max(N_SUB_MIN, math.ceil(per_sample / n_loop)))
+            n_sub=max(defaults().n_sub_min, math.ceil(per_sample / n_loop)))
 
     @property
     def rotary(self) -> bool:
@@ -229,7 +211,7 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     # slides on enough rows; fitting its stuck rows would fit the integral's wind-up against
     # the static friction (a Stribeck run sliding on 16 % of its rows: effort error 83 % with
     # every row, 3 % and the true mass, damping and Coulomb level on the sliding ones)
-    if n_sliding < 0.2 * n_dec and n_sliding < MIN_SLIDING_ROWS:
+    if n_sliding < 0.2 * n_dec and n_sliding < defaults().min_sliding_rows:
         prep.sliding_dec = np.ones(n_dec, dtype=bool)
     if sat is not None:
         # a clipped effort is the drive's limit, not the force the law asked for: the rows it

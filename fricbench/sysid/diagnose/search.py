@@ -16,7 +16,7 @@ size, refits every parameter with it (grey box) and repeats.
   runners-up of the previous step - are then fitted for real (nonlinear output error) on
   each fold. The loop gains are hardly identifiable from the position alone (with
   feedforward the reference is tracked whatever they are), so while a candidate is judged
-  they may only move by a factor ``EVAL_BOX`` and the integral action may not vanish: an
+  they may only move by a factor ``settings.eval_box`` and the integral action may not vanish: an
   effect must explain the residual through the loop as it is, not by changing the loop (the
   known ways to mistake friction for backlash or a slow loop for thermal drift). Before the
   first effect, the fits also start from the loop identified together with a Coulomb force
@@ -44,7 +44,6 @@ from fricbench.sysid.diagnose.controllers import CascadeController
 from fricbench.sysid.diagnose.effects import (
     Effect,
     describe_parameters,
-    effect_names,
     get_effect,
 )
 from fricbench.sysid.diagnose.equation_error import loop_by_equation_error
@@ -64,78 +63,16 @@ from fricbench.sysid.diagnose.models import (
     simulate_position,
 )
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.signals import fold_blocks
 from fricbench.sysid.io import MIN_STARTS
 
 __all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
 
 
-@dataclass(frozen=True)
-class SearchSettings:
-    """Thresholds of the forward selection.
-
-    Parameters
-    ----------
-    min_gain : float
-        Required ``-ln`` of the held-out error ratio, whatever the effect.
-    min_gain_position_other : float
-        Required ``-ln`` ratio of an effect that is not friction (backlash, cogging, thermal
-        drift, position-dependent friction) judged on the free-run position: a held-out cut of
-        about 22 %. The loop model is never exact on a run it did not write (a controller of
-        another structure, a semi-closed loop), and a flexible effect absorbs a few per cent
-        of any mismatch: on the second simulator of the tests, 16 of 21 falsely named effects
-        cut the held-out error by less than 25 %, 2 of 25 present ones did.
-    gain_per_param : float
-        Extra required ``-ln`` ratio per parameter of the effect (complexity penalty).
-    min_force_share : float
-        Smallest rms force of a force effect relative to the rms effort (with effort).
-    min_position_share : float
-        Smallest rms position contribution of an effect relative to the noise floor.
-    min_position_share_other : float
-        The same for an effect that is not friction: its whole signature in the free-run
-        position must stand above the noise floor. Below it, a flexible effect that cuts the
-        held-out error is fitting what the loop model misses (on the second simulator a
-        position-dependent friction 0.74 x the floor was named beside the Stribeck friction
-        actually there; every effect present and named was 5.7 x or more). Raised from 1 to
-        1.5 when a thermal drift 1.19 x the floor was named in a friction-only run (a clipping
-        1 kHz PID logged at 100 Hz, whose command delay the loop model lacks); the thermal
-        drifts present were named at 2.5 x and more.
-    max_steps : int
-        Most effects added.
-    n_confirm : int
-        Candidates fitted for real per step (no effort).
-    candidates : tuple of str
-        The effects tried (default: the whole library).
-    """
-
-    min_gain: float = 0.03
-    min_gain_position_other: float = 0.25
-    gain_per_param: float = 0.01
-    min_force_share: float = 0.005
-    min_position_share: float = 0.5
-    min_position_share_other: float = 1.5
-    max_steps: int = 8
-    n_confirm: int = 3
-    candidates: tuple[str, ...] = field(default_factory=effect_names)
-
-    def min_size(self, effect: str) -> float:
-        """Smallest rms position contribution of ``effect``, in noise floors."""
-        if get_effect(effect).friction:
-            return self.min_position_share
-        return max(self.min_position_share, self.min_position_share_other)
-
-    def required(self, n_params: int, effect: str | None = None,
-                 judged_on: str = "effort") -> float:
-        """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters.
-
-        A non-friction ``effect`` judged on the position needs
-        :attr:`min_gain_position_other` instead of :attr:`min_gain`.
-        """
-        base = self.min_gain
-        if (effect is not None and judged_on.startswith("position")
-                and not get_effect(effect).friction):
-            base = max(base, self.min_gain_position_other)
-        return base + self.gain_per_param * n_params
+SearchSettings = DiagnoseSettings
+"""The search's thresholds, now fields of :class:`DiagnoseSettings` (the name is kept for code
+that builds ``SearchSettings(max_steps=...)``)."""
 
 
 @dataclass
@@ -231,9 +168,9 @@ def _shown_by(effect: Effect, prep: Prepared) -> bool:
     return effect.shown_at_rests and prep.run.n_starts >= MIN_STARTS
 
 
-def _available(model: GreyBox, prep: Prepared, settings: SearchSettings) -> list[str]:
+def _available(model: GreyBox, prep: Prepared, settings: DiagnoseSettings) -> list[str]:
     out = []
-    for name in settings.candidates:
+    for name in settings.effects_tried():
         effect = get_effect(name)
         if name in model.effects:
             continue
@@ -272,17 +209,6 @@ def _block_sse(y: np.ndarray, prep: Prepared, fold: int) -> np.ndarray:
     return np.asarray(out, dtype=float)
 
 
-ONE_BLOCK_MAJORITY = 0.75
-"""Share of the other held-out blocks a candidate must predict better before the one block
-it predicts worst is left out of its held-out ratio (:func:`block_left_out`)."""
-
-ONE_BLOCK_WORSE = 1.5
-"""The block left out must be predicted at least this much worse by the candidate (squared
-error): a block whose error it hardly changes does not go against the others, and leaving it
-out would only reweight the sums (a block that dominates the base's error and that the
-candidate leaves as it is would make a small cut elsewhere look large)."""
-
-
 def block_left_out(cand: np.ndarray, base: np.ndarray) -> int | None:
     """The held-out block left out of a candidate's judgement, or None (judged on every block).
 
@@ -292,9 +218,9 @@ def block_left_out(cand: np.ndarray, base: np.ndarray) -> int | None:
     deceleration clips the drive) puts it in one block, and a fold fit that never saw such an
     event may predict it far worse although it predicts the rest of the run far better (a
     viscous term fitted on slow motion alone, extrapolated). When the candidate predicts at
-    least :data:`ONE_BLOCK_MAJORITY` of the other blocks better (a sign test: 15 of 19 by
+    least ``settings.one_block_majority`` of the other blocks better (a sign test: 15 of 19 by
     chance has odds below 1 in 100) and the block where it loses most at least
-    :data:`ONE_BLOCK_WORSE` times worse, that block is left out of both sums. The winner is
+    ``settings.one_block_worse`` times worse, that block is left out of both sums. The winner is
     still refitted on every sample and must keep its cut there, and its note in the report
     names the block and gives the ratio with it.
 
@@ -308,8 +234,8 @@ def block_left_out(cand: np.ndarray, base: np.ndarray) -> int | None:
         return None
     diff = cand - base
     j = int(np.argmax(diff))
-    if (cand[j] >= ONE_BLOCK_WORSE * base[j] and diff[j] > 0.0
-            and np.mean(np.delete(diff, j) < 0.0) >= ONE_BLOCK_MAJORITY):
+    if (cand[j] >= defaults().one_block_worse * base[j] and diff[j] > 0.0
+            and np.mean(np.delete(diff, j) < 0.0) >= defaults().one_block_majority):
         return j
     return None
 
@@ -366,28 +292,6 @@ def _effect_position_size(model: GreyBox, name: str, prep: Prepared, w: np.ndarr
     return _rms(y - y0)
 
 
-NEGLIGIBLE_SIZE = 0.5
-"""A real fit whose effect moves the position by less than this fraction of the size it must
-reach (:meth:`SearchSettings.min_size`) found the effect negligible on this run (it is not
-fitted again unless its screen promises a cut)."""
-
-NEGLIGIBLE_RESIDUAL_DROP = 0.5
-"""With an effort, an output effect found negligible is fitted again once the position rms has
-fallen below this fraction of the rms it was found negligible against."""
-
-POSITION_TOLERANCE = 0.02
-"""An effect may make the free-run position prediction worse by this fraction at most."""
-
-
-EFFORT_TOLERANCE = 0.02
-"""A force effect judged on the position may make the held-out effort error worse by this
-fraction at most (the effort is measured: what it contradicts is no force of the axis)."""
-
-POSITION_PHASE_FACTOR = 1.5
-"""With an effort, once no force effect cuts the held-out effort error, force effects are judged
-on the free-run position while its residual stays above this multiple of the noise floor."""
-
-
 def _kept_in_refit(sc: CandidateScore, why: str | None, size: float, min_size: float,
                    kept: float, need: float, floor: float, warnings: list[str]) -> bool:
     """Whether a winner's refit on all samples keeps it: not an artefact (``why`` is None), at
@@ -421,7 +325,7 @@ def _heldout_effort_sse(idim: InverseDynamics, fits: dict[int, PositionFitResult
 
 
 def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
-                       b: Bounds, settings: SearchSettings, w: np.ndarray | None,
+                       b: Bounds, settings: DiagnoseSettings, w: np.ndarray | None,
                        floor: float, log: Callable[[str], None], warnings: list[str]
                        ) -> tuple[list[CandidateScore],
                                   tuple[CandidateScore, GreyBox, np.ndarray] | None]:
@@ -436,7 +340,7 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
     on the other fold against the model without it, refitted the same way (so a refitted
     friction level alone is no gain). Returns the scores and, when one wins, ``(score,
     model, y)`` as :func:`_search_with_effort` accepts it. A candidate that makes the held-out
-    effort error worse by more than :data:`EFFORT_TOLERANCE` is rejected.
+    effort error worse by more than ``settings.effort_tolerance`` is rejected.
     """
     forces = [e for e in m.effects if get_effect(e).kind == "force"]
     base_fits = {}
@@ -475,7 +379,7 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
         sc = CandidateScore(name, _n_params(name, effects), rho, "position", size / floor,
                             size >= settings.min_size(name) * floor,
                             "judged on the position: the effort shows no more")
-        if effort_ratio > 1.0 + EFFORT_TOLERANCE:
+        if effort_ratio > 1.0 + settings.effort_tolerance:
             # the measured effort contradicts it: a force the effort does not carry stands in
             # for a mismatch of the loop (on a hobby motor's step run, Coulomb, Stribeck and
             # position-dependent friction fitted this way cut the training position error 2x
@@ -518,7 +422,7 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
 
 
 def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b: Bounds,
-                        settings: SearchSettings, w: np.ndarray | None,
+                        settings: DiagnoseSettings, w: np.ndarray | None,
                         log: Callable[[str], None], warnings: list[str]
                         ) -> tuple[list[Step], str, float]:
     y, _ = simulate_position(model, prep, w)
@@ -564,7 +468,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     proposals[name] = m.copy(plant=p_all, effects=effects)
                 else:
                     if (name in negligible
-                            and cur.position_rms > NEGLIGIBLE_RESIDUAL_DROP * negligible[name]):
+                            and cur.position_rms
+                            > settings.negligible_residual_drop * negligible[name]):
                         # its fit at an earlier step found it negligible: the forces added since
                         # leave the loop and the output path as they were. Not once they have
                         # cut the residual it was judged against: an effect small beside a
@@ -580,7 +485,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     size = _effect_position_size(m_new, name, prep, w, fitted.y)
                     sc = CandidateScore(name, n_par, ratio, "position", size / floor,
                                         size >= settings.min_size(name) * floor)
-                    if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
+                    if size < settings.negligible_size * settings.min_size(name) * floor:
                         negligible[name] = cur.position_rms
                     proposals[name] = m_new
                 scores.append(sc)
@@ -619,7 +524,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     log(f"    rejected {why}")
                     continue
                 accepted = (winner, new, y_new)
-            if accepted is None and cur.position_rms > POSITION_PHASE_FACTOR * floor:
+            if accepted is None and cur.position_rms > settings.position_phase_factor * floor:
                 # the effort shows no more force, the position still does: judge the force
                 # effects on it from here on
                 log("  the effort shows no more: force effects judged on the free-run position")
@@ -663,7 +568,7 @@ def _position_prune(model: GreyBox, prep: Prepared, idim: InverseDynamics,
     The effort search never fits the free-run position, so it is held out from it. Each
     round removes the effect whose removal (the force terms refitted without it) lowers the
     free-run rms the most, while the model with it is worse by more than
-    :data:`POSITION_TOLERANCE`. Returns ``(effect, rms with, rms without)`` per removal.
+    ``settings.position_tolerance``. Returns ``(effect, rms with, rms without)`` per removal.
     """
     out: list[tuple[str, float, float]] = []
     y, _ = simulate_position(model, prep, w)
@@ -673,7 +578,7 @@ def _position_prune(model: GreyBox, prep: Prepared, idim: InverseDynamics,
         ys = simulate_models(trials, prep, w)[0]
         rms_without = [_rms(prep.x - yy) for yy in ys]
         k = int(np.argmin(rms_without))
-        if not rms > (1.0 + POSITION_TOLERANCE) * rms_without[k]:
+        if not rms > (1.0 + defaults().position_tolerance) * rms_without[k]:
             break
         out.append((model.effects[k], rms, rms_without[k]))
         log(f"    {model.effects[k]} makes the free-run position worse: "
@@ -693,23 +598,15 @@ def _start_output(model: GreyBox, name: str, prep: Prepared, b: Bounds, w: np.nd
     return get_effect(name).output_start(m, prep, b, w, y, allm, simulate_models)
 
 
-QUANTUM_PERIOD_TOLERANCE = 0.05
-"""A spatial period within this fraction of a small multiple of the sensor quantum is the
-sensor's staircase, not the axis."""
-
-QUANTUM_MULTIPLES = (1, 2, 3, 4)
-"""The multiples of the sensor quantum a period is compared with."""
-
-
 def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
              w: np.ndarray | None = None) -> str | None:
     """Why the fitted effect ``name`` of ``model`` is a sensor or fit artefact, or None.
 
-    * a spatial period within :data:`QUANTUM_PERIOD_TOLERANCE` of a small multiple of the
+    * a spatial period within ``settings.quantum_period_tolerance`` of a small multiple of the
       sensor quantum (the staircase of a coarse sensor leaves a residual with that period);
     * the spatial period of a periodic term (:attr:`Effect.periodic`) longer than the stroke
       (a level change, not a period);
-    * a spatial period within :data:`QUANTUM_PERIOD_TOLERANCE` of another effect's in the model
+    * a spatial period within ``settings.quantum_period_tolerance`` of another effect's in the model
       (a friction varying along the stroke at the cogging's period is what a cogging that is
       not a pure sine leaves, not a second effect);
     * a shape parameter (a period, a time constant, a Stribeck velocity) that ended on a
@@ -726,8 +623,8 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
     if effect.period_parameter is not None:
         per = float(p[effect.period_parameter])
         q = prep.noise.quantum
-        for k in QUANTUM_MULTIPLES:
-            if q > 0.0 and abs(per / (k * q) - 1.0) <= QUANTUM_PERIOD_TOLERANCE:
+        for k in defaults().quantum_multiples:
+            if q > 0.0 and abs(per / (k * q) - 1.0) <= defaults().quantum_period_tolerance:
                 times = "" if k == 1 else f"{k} x "
                 return (f"{name}: its period {per:.4g} is {times}the sensor quantum "
                         f"{q:.4g}: the sensor's staircase, not the axis")
@@ -739,7 +636,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
             if other == name or o.period_parameter is None:
                 continue
             per_o = float(p[o.period_parameter])
-            if per_o > 0.0 and abs(per / per_o - 1.0) <= QUANTUM_PERIOD_TOLERANCE:
+            if per_o > 0.0 and abs(per / per_o - 1.0) <= defaults().quantum_period_tolerance:
                 return (f"{name}: its period {per:.4g} is that of {other} ({per_o:.4g}): the "
                         f"same periodic term twice (the residual of {other}'s shape), not a "
                         "second effect")
@@ -756,7 +653,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
     return effect.evidence(model, prep, w, simulate_models)
 
 
-def _pick(scores: list[CandidateScore], settings: SearchSettings) -> CandidateScore | None:
+def _pick(scores: list[CandidateScore], settings: DiagnoseSettings) -> CandidateScore | None:
     ok = [s for s in scores if s.size_ok
           and s.gain >= settings.required(s.n_params, s.effect, s.judged_on)]
     if not ok:
@@ -857,25 +754,15 @@ def _linear_cv(r0: np.ndarray, rows: np.ndarray, folds: np.ndarray) -> float:
     return total
 
 
-FLOOR_NOISE_FACTOR = 3.0
-"""Lower bound of the free-run noise floor, in units of the measured sensor noise."""
-
-EVAL_BOX = 2.0
-"""While a candidate is judged, each loop gain may move by this factor at most."""
-
-REFIT_BOX = 3.0
-"""In the refit of an accepted model, each loop gain may move by this factor at most."""
-
-
 def _eval_params(model: GreyBox, b: Bounds) -> list:
     """Free parameters while judging a candidate: plant, effects and a boxed loop.
 
-    The loop gains may only move within a factor ``EVAL_BOX`` of their current values: this
+    The loop gains may only move within a factor ``settings.eval_box`` of their current values: this
     keeps one effect from imitating another through a changed loop (with its integral action
     fitted away, Coulomb friction leaves a direction-dependent offset that looks like
     backlash; a slow position loop imitates a thermal drift).
     """
-    return position_params(model, b, controller=True, controller_box=EVAL_BOX)
+    return position_params(model, b, controller=True, controller_box=defaults().eval_box)
 
 
 def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray,
@@ -893,15 +780,6 @@ _Variant = tuple[float, _Probe, np.ndarray]
 # with stiction is far from linear), and the fit only refines a period within a few per cent.
 # Effects with Effect.always_fitted are fitted for real at every step, whatever their screen.
 
-SCREEN_FAILED = 2.0
-"""A linearised screen that predicts the held-out error to grow by more than this factor has
-left the range where the effect acts linearly (an effect at a small amplitude changes the error
-little either way): effects with ``Effect.fitted_when_screen_fails`` are then fitted for real."""
-
-
-SCREEN_PROMISE = 0.9
-"""A linearised screen ratio below this promises a cut worth a real fit again."""
-
 
 def _fitted_anyway(name: str, ratio: float, negligible: frozenset[str] = frozenset()) -> bool:
     """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``).
@@ -912,9 +790,10 @@ def _fitted_anyway(name: str, ratio: float, negligible: frozenset[str] = frozens
     a loop that may be far off, or linearises a stick-slip response) was met by that fit.
     """
     effect = get_effect(name)
-    if name in negligible and ratio >= SCREEN_PROMISE:
+    if name in negligible and ratio >= defaults().screen_promise:
         return False
-    return effect.always_fitted or (effect.fitted_when_screen_fails and ratio > SCREEN_FAILED)
+    return effect.always_fitted or (effect.fitted_when_screen_fails
+                                    and ratio > defaults().screen_failed)
 
 
 def _fit_starts(variants: list[_Variant], name: str, b: Bounds) -> list[GreyBox]:
@@ -950,7 +829,7 @@ def _variant_start(variant: _Variant, name: str, b: Bounds) -> GreyBox:
     return pr.start.copy(plant=_physical(q, name, b, pr.indices))
 
 
-def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: SearchSettings,
+def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: DiagnoseSettings,
             tag: int) -> dict[str, list[_Variant]]:
     """Linearised held-out ratio of every available candidate around model ``m``.
 
@@ -1010,7 +889,7 @@ def _screen(m: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, settings: Sear
 
 def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateScore],
                               confirmed: dict[str, dict[int, PositionFitResult]],
-                              prep: Prepared, b: Bounds, settings: SearchSettings,
+                              prep: Prepared, b: Bounds, settings: DiagnoseSettings,
                               floor: float, base_heldout: float,
                               fold_fit: Callable[[GreyBox, np.ndarray], PositionFitResult],
                               log: Callable[[str], None], warnings: list[str]
@@ -1028,7 +907,7 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
     for req, req_sc in by_name.items():
         if req not in confirmed:
             continue
-        for name in settings.candidates:
+        for name in settings.effects_tried():
             effect = get_effect(name)
             effects = m.effects + (req, name)
             if (req not in effect.requires or name in m.effects
@@ -1117,18 +996,18 @@ def _effort_check_ratio(idim: InverseDynamics, base_sse: float,
 
 def _effort_check_tolerance(prep: Prepared, n_params: int) -> float:
     """How much worse a candidate may make the held-out effort error of the position mode's
-    effort check: :data:`EFFORT_TOLERANCE` plus what ``n_params`` parameters fitted to one fold
+    effort check: ``settings.effort_tolerance`` plus what ``n_params`` parameters fitted to one fold
     add to the other fold's error even when the force is right, ``n_params / n``, ``n`` the
     sliding rows of the smaller training fold (the expected out-of-sample inflation of a least-
     squares fit). A short log gives the check few rows: a 1 kHz drive logged at 100 Hz for
     13 s slides on 83 decimated rows, and the Stribeck friction actually there, which cut the
     held-out position error 26x, made the effort's error x1.028 worse."""
     n = min(int(np.count_nonzero((prep.folds_dec != k) & prep.sliding_dec)) for k in (0, 1))
-    return EFFORT_TOLERANCE + n_params / max(n, 1)
+    return defaults().effort_tolerance + n_params / max(n, 1)
 
 
 def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
-                           settings: SearchSettings, log: Callable[[str], None],
+                           settings: DiagnoseSettings, log: Callable[[str], None],
                            jac: np.ndarray | None, warnings: list[str], alt_loops: tuple = (),
                            budget_iter: int = 5, alt_starts: tuple = (),
                            effort_check: InverseDynamics | None = None,
@@ -1148,7 +1027,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # noise): with stiction in the loop, runs deviate by 3..6 times the sensor noise from
         # their noise-free twins (measured on simulated axes), hence the lower bound
         floor = max(min(prediction_floor(m, prep), floor_linear),
-                    FLOOR_NOISE_FACTOR * prep.noise.rms)
+                    settings.floor_noise_factor * prep.noise.rms)
         if cur.position_rms <= floor:
             reason = (f"the position residual ({_length(prep, cur.position_rms)} rms) is at "
                       f"the noise floor of a free-run prediction ({_length(prep, floor)}): "
@@ -1264,7 +1143,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                     effort_note += " rejected"
             scores.append(sc)
             confirmed[name] = fits
-            if size < NEGLIGIBLE_SIZE * settings.min_size(name) * floor:
+            if size < settings.negligible_size * settings.min_size(name) * floor:
                 negligible.add(name)
             log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
                 f"size {size / floor:.2f} x floor{effort_note}"
@@ -1391,7 +1270,7 @@ def _heldout_position_sse(model: GreyBox, prep: Prepared, b: Bounds, budget_iter
     return total
 
 
-def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: SearchSettings,
+def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: DiagnoseSettings,
                       log: Callable[[str], None], budget_iter: int = 5
                       ) -> tuple[str, float] | None:
     """An effect of ``model`` that the others have made unnecessary, or None.
@@ -1400,7 +1279,7 @@ def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: Searc
     may explain the same residual better (position-dependent friction stands in for the
     Stribeck hump until the hump is in). Each effect no other one requires is taken out
     and the model refitted on each fold: when the held-out error rises by less than the gain
-    the effect would need to be added (:meth:`SearchSettings.required`), it is redundant.
+    the effect would need to be added (``DiagnoseSettings.required``), it is redundant.
     Returns the least useful such effect and its ``-ln`` held-out gain.
     """
     effects = model.effects
@@ -1437,10 +1316,10 @@ def _refit(start: GreyBox, prep: Prepared, b: Bounds, max_iter: int) -> Position
     best: PositionFitResult | None = None
     # whatever the start, the integral action may not collapse (see _eval_params)
     c0 = start.controller
-    ki_min = (c0.ki / c0.wv) / REFIT_BOX if isinstance(c0, CascadeController) else 0.0
+    ki_min = (c0.ki / c0.wv) / defaults().refit_box if isinstance(c0, CascadeController) else 0.0
     for k, m in enumerate(candidates):
         params = position_params(m, b, controller=True,
-                                 controller_box=REFIT_BOX if k == 0 else None,
+                                 controller_box=defaults().refit_box if k == 0 else None,
                                  ki_min_ratio=ki_min)
         res = PositionFit(prep, params).run(m, max_iter=max_iter)
         if best is None or res.cost < best.cost:
@@ -1465,7 +1344,7 @@ def _physical(q: np.ndarray, name: str, b: Bounds, indices: Sequence[int]) -> np
 
 def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, *,
                       idim: InverseDynamics | None = None, w: np.ndarray | None = None,
-                      jac: np.ndarray | None = None, settings: SearchSettings | None = None,
+                      jac: np.ndarray | None = None, settings: DiagnoseSettings | None = None,
                       alt_loops: tuple = (), alt_starts: tuple = (),
                       effort_check: InverseDynamics | None = None,
                       log: Callable[[str], None] | None = None) -> SearchResult:
@@ -1485,7 +1364,8 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
         Injected effort of the run.
     jac : ndarray, optional
         Jacobian of the linear output-error fit, one row per parameter (runs without effort).
-    settings : SearchSettings, optional
+    settings : DiagnoseSettings, optional
+        Default: :func:`~fricbench.sysid.diagnose.settings.defaults`.
     alt_loops : tuple of CascadeController
         Other loop estimates the first step's fits also start from (runs without effort).
     alt_starts : tuple of GreyBox
@@ -1494,7 +1374,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     effort_check : InverseDynamics, optional
         The effort regression of a run diagnosed on its position although it logs an effort
         (its law was set aside): a force effect that makes the held-out effort error worse by
-        more than :data:`EFFORT_TOLERANCE` and what its parameters' fit on few rows adds
+        more than ``settings.effort_tolerance`` and what its parameters' fit on few rows adds
         (:func:`_effort_check_tolerance`) is rejected (without ``idim`` only).
     log : callable, optional
         Receives progress lines.
@@ -1503,7 +1383,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     -------
     SearchResult
     """
-    settings = settings or SearchSettings()
+    settings = settings or defaults()
     log = log or (lambda _s: None)
     t0 = time.perf_counter()
     warnings: list[str] = []
@@ -1512,7 +1392,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                                    warnings)
         # no effect may make the free-run position worse: prune the final model, and search
         # again without what was pruned (so that every step is one the final model keeps)
-        for _ in range(len(settings.candidates)):
+        for _ in range(len(settings.effects_tried())):
             pruned = _position_prune(steps[-1].model, prep, idim, w, log)
             if not pruned:
                 break
@@ -1524,7 +1404,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                 f"-> {_length(prep, with_)} rms)")
             dropped = {name for name, _, _ in pruned}
             settings = dataclasses.replace(settings, candidates=tuple(
-                c for c in settings.candidates if c not in dropped))
+                c for c in settings.effects_tried() if c not in dropped))
             steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log,
                                                        warnings)
     else:
@@ -1534,7 +1414,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                                       effort_check=effort_check)
         # backward elimination: an effect a later one made unnecessary is dropped and the
         # search run again without it (so that every step is one the final model keeps)
-        for _ in range(len(settings.candidates)):
+        for _ in range(len(settings.effects_tried())):
             redundant = _redundant_effect(steps[-1].model, prep, b, settings, log)
             if redundant is None:
                 break
@@ -1546,7 +1426,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                             "cuts the held-out position error by what adding it requires")
             log(f"  - {name}: redundant, search again without it")
             settings = dataclasses.replace(settings, candidates=tuple(
-                c for c in settings.candidates if c != name))
+                c for c in settings.effects_tried() if c != name))
             steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log,
                                                           jac, warnings, alt_loops,
                                                           alt_starts=alt_starts,

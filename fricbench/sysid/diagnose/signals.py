@@ -15,22 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, signal
 
-__all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
-           "block_folds", "fold_blocks", "period_candidates", "MIN_PERIODS_IN_STROKE",
-           "choose_filter", "Saturation", "detect_saturation", "STEPS_PER_FILTER_PERIOD"]
+from fricbench.sysid.diagnose.settings import defaults
 
-MIN_PERIODS_IN_STROKE = 1.0
-"""Fewest periods of a periodic force (cogging) the stroke must cover for it to be searched (a
-longer period is a level change, and :func:`~fricbench.sysid.diagnose.search.artefact` rejects
-it). One period is enough because a ripple is told from a friction level that changes along the
-stroke by the direction of motion, not by the number of periods: a ripple pushes the same way in
-both directions, a friction level against the motion. At two periods (the rule before), the
-second simulator's cogging/12 (a period of 0.70 of the stroke) was fitted as a
-position-dependent friction, and cogging/5 was missed; at one period both are found. A fit to
-the position alone can then also take a long ripple for what its loop model misses (a 100 Hz
-semi-closed PID run with backlash, backlash/5: a ripple of 0.72 strokes and 0.8 % of the Coulomb
-level, held-out position x0.49); where the run logs an effort, the effort rejects it (see
-``effort_check`` of :func:`~fricbench.sysid.diagnose.search.forward_selection`)."""
+__all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
+           "block_folds", "fold_blocks", "period_candidates",
+           "choose_filter", "Saturation", "detect_saturation"]
 
 
 def filtered_derivatives(x: np.ndarray, ts: float, cutoff_hz: float,
@@ -112,12 +101,6 @@ class NoiseFloor:
                 "source": self.source}
 
 
-QUANTUM_GRID_TOLERANCE = 0.05
-"""Largest deviation (99th percentile) of the values from the fitted grid, in steps, for the
-values to count as quantised: 5 % of a step tolerates an export rounded to a few digits (a
-3.5156 deg step logged to 0.01 deg reads 3.51 or 3.52 deg, 0.15 % off the grid)."""
-
-
 def _quantum(x: np.ndarray) -> float:
     """Encoder step of ``x`` (m), or 0 when the values do not lie on a grid.
 
@@ -125,7 +108,7 @@ def _quantum(x: np.ndarray) -> float:
     a rounded export, 3.51 and 3.52, count as one) is a first guess; the step and the offset of
     the grid ``x = x0 + n q`` are then fitted by least squares to the distinct values, so that
     the rounding of single steps averages out. The values must lie on that grid within
-    :data:`QUANTUM_GRID_TOLERANCE`.
+    ``settings.quantum_grid_tolerance``.
     """
     d = np.abs(np.diff(x))
     scale = max(float(np.max(np.abs(x))), 1e-12)
@@ -169,7 +152,7 @@ def _quantum(x: np.ndarray) -> float:
         q = float(q_new)
     frac = (x - x0) / q
     frac = frac - np.round(frac)
-    return q if float(np.percentile(np.abs(frac), 99)) < QUANTUM_GRID_TOLERANCE else 0.0
+    return q if float(np.percentile(np.abs(frac), 99)) < defaults().quantum_grid_tolerance else 0.0
 
 
 def noise_floor(x: np.ndarray, x_ref: np.ndarray, quantum: float | None = None) -> NoiseFloor:
@@ -230,12 +213,6 @@ def noise_floor(x: np.ndarray, x_ref: np.ndarray, quantum: float | None = None) 
     return NoiseFloor(sigma, q, source)
 
 
-STEPS_PER_FILTER_PERIOD = 5.0
-"""Resolution steps the axis must cover, at its mean speed, in one period of the derivative
-filter's cut-off. Below that the filtered velocity is mostly the staircase of a coarse sensor
-(each step is a jump of one resolution in one sample), and its second derivative is noise."""
-
-
 def choose_filter(x: np.ndarray, ts: float, noise: NoiseFloor) -> tuple[float, int, str]:
     """Derivative filter cut-off (Hz) and decimation chosen from the sensor and the motion.
 
@@ -245,9 +222,9 @@ def choose_filter(x: np.ndarray, ts: float, noise: NoiseFloor) -> tuple[float, i
     ``res = sqrt(12) * noise.rms`` (the quantum, or the white noise's equivalent) against the
     mean speed ``v`` of the measured motion (its path length through a play of one
     resolution, which ignores dithering by a step at rest, over the duration) gives the
-    cut-off ``v / (STEPS_PER_FILTER_PERIOD * res)`` when that is lower than the recipe's; the
-    decimation keeps the decimated Nyquist frequency near the cut-off (``fs / fc``), with at
-    least 400 decimated rows and never less than the recipe's 10.
+    cut-off ``v / (settings.steps_per_filter_period * res)`` when that is lower than the
+    recipe's; the decimation keeps the decimated Nyquist frequency near the cut-off
+    (``fs / fc``), with at least 400 decimated rows and never less than the recipe's 10.
 
     Parameters
     ----------
@@ -285,7 +262,7 @@ def choose_filter(x: np.ndarray, ts: float, noise: NoiseFloor) -> tuple[float, i
             path += y - (xk + half)
             y = xk + half
     v_mean = path / duration
-    fc = v_mean / (STEPS_PER_FILTER_PERIOD * res)
+    fc = v_mean / (defaults().steps_per_filter_period * res)
     fc_min = max(5.0 / duration, 0.002 * fs)
     if not np.isfinite(fc) or fc >= fc_recipe or v_mean <= 0.0:
         return fc_recipe, decim_recipe, "default"

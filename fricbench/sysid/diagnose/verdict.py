@@ -3,7 +3,7 @@
 Three verdicts (the report's top-level ``verdict``):
 
 * ``explained``: effects were added and the held-out position error fell by more than
-  :data:`HELDOUT_GAIN` (the validation run's when there is one, else the training run's free
+  ``settings.heldout_gain`` (the validation run's when there is one, else the training run's free
   run, which the effort-judged search never fits);
 * ``nothing_to_explain``: no effect was needed, the position residual is at the noise floor
   of a free-run prediction;
@@ -21,23 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from fricbench.sysid.diagnose.search import POSITION_TOLERANCE
+from fricbench.sysid.diagnose.settings import defaults
 
-__all__ = ["Verdict", "describe", "judge", "EXPLAINED_SHARE", "FLOOR_FACTOR", "HELDOUT_GAIN"]
-
-EXPLAINED_SHARE = 0.5
-"""Share of the residual's variance a structure must carry to be named."""
-
-FLOOR_FACTOR = 1.5
-"""A residual within this multiple of the free-run noise floor is at the floor."""
-
-HELDOUT_GAIN = POSITION_TOLERANCE
-"""The held-out position error must fall by more than this fraction for the effects added to
-count as explaining it: the search's tolerance within which an effect may leave the free-run
-position, so a change within it is no change. The shared DC motor's sine run adds a force
-offset that moves its validation on the step run from 5.538 to 5.438 deg (1.8 %), while that
-error stays 5 times the step run's noise floor (it moves faster than the sine run ever did):
-that is not an explained run."""
+__all__ = ["Verdict", "describe", "judge"]
 
 
 @dataclass(frozen=True)
@@ -79,7 +65,7 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
     """What the residual ``r`` of a free-run prediction looks like, in words.
 
     Each structure is fitted by least squares and its share of the residual's variance
-    compared; the largest share wins when it exceeds :data:`EXPLAINED_SHARE`:
+    compared; the largest share wins when it exceeds ``settings.explained_share``:
 
     * a drift: a cubic polynomial in time;
     * a lag: the reference velocity and its derivative (``r ~ -tau v``: a delay ``tau``);
@@ -144,7 +130,7 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
                     shares["resonance"] = (_share(r, band), f"an oscillation near "
                                                             f"{f[k]:.3g} Hz (a resonance)")
     best = max(shares.values(), key=lambda s: s[0])
-    if best[0] >= EXPLAINED_SHARE:
+    if best[0] >= defaults().explained_share:
         return f"{best[1]}: {100 * best[0]:.0f} % of its variance"
     return (f"no dominant structure (the best, {best[1].split(' (')[0]}, carries "
             f"{100 * best[0]:.0f} % of its variance)")
@@ -176,17 +162,17 @@ def judge(effects: list[str], rms_after: float, floor: float, residual: np.ndarr
         Formats a position figure (SI) in the log's unit (default: ``"%.4g m"``).
     """
     length = length or (lambda v: f"{v:.4g} m")
-    at_floor = rms_after <= FLOOR_FACTOR * floor
+    at_floor = rms_after <= defaults().floor_factor * floor
     looks = "at the noise floor" if at_floor else describe(residual, x, v_ref, ts)
     if effects:
         before, after = heldout if heldout is not None else (float("nan"), float("nan"))
-        if heldout is None or after < (1.0 - HELDOUT_GAIN) * before:
+        if heldout is None or after < (1.0 - defaults().heldout_gain) * before:
             where = f"the {heldout_name} run's" if heldout is not None else "the"
             return Verdict("explained", f"{', '.join(effects)} added; {where} held-out "
                                         "position error fell", looks)
         return Verdict("not_explained", f"{', '.join(effects)} added on the training run, "
                                         f"but the {heldout_name} run's position error did not "
-                                        f"fall by more than {100 * HELDOUT_GAIN:.0f} % "
+                                        f"fall by more than {100 * defaults().heldout_gain:.0f} % "
                                         f"({length(before)} -> {length(after)})", looks)
     if at_floor:
         return Verdict("nothing_to_explain", "the linear model's position residual is at the "

@@ -90,7 +90,7 @@ class Effect(ABC):
     friction : bool
         A friction term (Coulomb, Stribeck, an offset, asymmetric levels): the first suspect of
         any servo axis. Other effects are claims that need stronger evidence when judged on the
-        position (:attr:`SearchSettings.min_gain_position_other`).
+        position (``settings.min_gain_position_other``).
     periodic : bool
         The effect is a periodic term, so a period longer than the stroke is an artefact (a
         level change); False for a smooth variation along the stroke described by a period.
@@ -100,7 +100,7 @@ class Effect(ABC):
         Fitted for real at every step of the position search, whatever its linearised screen.
     fitted_when_screen_fails : bool
         Fitted for real when its linearised screen fails (a held-out error ratio above
-        :data:`~fricbench.sysid.diagnose.search.SCREEN_FAILED`): a friction level that changes
+        ``settings.screen_failed``): a friction level that changes
         is as far from linear as stiction, and a screen that far off says nothing of it.
     refits_mass : bool
         An output effect that changes the dynamics between force and motion (a compliant

@@ -12,7 +12,8 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.diagnose.signals import MIN_PERIODS_IN_STROKE, period_candidates
+from fricbench.sysid.diagnose.settings import defaults
+from fricbench.sysid.diagnose.signals import period_candidates
 
 
 class Cogging(Effect):
@@ -57,7 +58,8 @@ class Cogging(Effect):
         periods: list[float] = []
         for sgn in (1.0, -1.0):
             sel = moving & (np.sign(v) == sgn)
-            periods += period_candidates(prep.xf, r, sel, lo, b.stroke / MIN_PERIODS_IN_STROKE,
+            periods += period_candidates(prep.xf, r, sel, lo,
+                                         b.stroke / defaults().min_periods_in_stroke,
                                          n_best=2)
         uniq: list[float] = []
         for per in periods:
@@ -81,7 +83,7 @@ class Cogging(Effect):
         # shortest period: above the noise, and at least 4 samples at a typical speed
         lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
             np.abs(pr.vf[fast]))) if np.any(fast) else 1e-4)
-        hi = pr.stroke / MIN_PERIODS_IN_STROKE
+        hi = pr.stroke / defaults().min_periods_in_stroke
         base = tuple(e for e in effects if e != self.name)
         pb, _ = idim._solve(base, p, rows)
         resid = idim.u_dec - idim.predict(pb)

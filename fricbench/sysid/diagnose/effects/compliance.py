@@ -31,6 +31,7 @@ from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
 from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 
 if TYPE_CHECKING:
     from fricbench.sysid.diagnose.models import GreyBox
@@ -38,53 +39,11 @@ if TYPE_CHECKING:
 __all__ = ["Compliance", "resonance_candidates", "deflection_resonance", "frequency_range",
            "frf_candidates"]
 
-MIN_CYCLES = 10.0
-"""Fewest cycles of the lowest resonance the run must span (its frequency, and its damping,
-need a few periods to show)."""
-
-ZETA_RANGE = (2.0e-3, 0.3)
-"""Damping ratios of a coupling that show as a resonance: above 0.3 the peak of the response
-is less than 1.7 times its static level, and a damped two-mass model is a flexible filter
-that absorbs any mismatch of the loop model (on the second simulator's rigid position-
-dependent-friction run it took a 52 % held-out cut at zeta 0.35). A fit that ends on a bound
-is rejected as an artefact."""
-
-START_RATIOS = (0.15, 0.4, 0.7)
-"""Load shares tried at each start frequency."""
-
-START_ZETA = 0.05
-"""Damping ratio of the starts (a typical coupling or screw: 0.01 .. 0.1)."""
-
-EXCITED_SHARE = 1e-4
-"""Frequencies where the effort's power exceeds this share of its peak are excited."""
-
-MIN_COHERENCE = 0.8
-"""Coherence of effort and position a resonance peak of the frequency response needs."""
-
-BAND_RESIDUAL_MAX = 0.5
-"""Largest share of the rigid model's residual power in the resonance band (velocity
-weighted, ``0.7 f_a .. 1.3 f_r``) that the compliant model may leave there. A coupling that is
-really there rings in that band, and modelling it removes most of the ringing: on two-mass
-runs of an independent simulator 0.000 .. 0.022 remained. A two-mass model that stands in for
-a rigid axis's loop mismatch (a control law or a friction the model lacks) leaves the band
-as it was or rings more there (1.4 .. 34 times the rigid model's power on the second
-simulator's rigid runs)."""
-
-BAND_SHARE_MIN = 0.25
-"""Smallest share of the fall of the (velocity-weighted) residual power that must lie in the
-resonance band (0.77 .. 0.93 on the two-mass runs; negative on the rigid runs above)."""
-
-START_SHAPES_PER_LOOP = 6
-"""Starting shapes (frequency, load share, sensor side) tried under each standard starting
-loop after ranking them under the current loop."""
-
-START_ITERATIONS = 25
-"""Iterations of the refinement of a start with the loop free (runs without an effort)."""
-
 
 def frequency_range(b: Bounds) -> tuple[float, float]:
-    """Resonances a run can show, Hz: ``MIN_CYCLES`` in its duration, up to 0.45 x sampling."""
-    return max(0.5, MIN_CYCLES / max(b.duration, 1e-9)), 0.45 / b.ts
+    """Resonances a run can show, Hz: ``settings.compliance_min_cycles`` in its duration, up to
+    0.45 x sampling."""
+    return max(0.5, defaults().compliance_min_cycles / max(b.duration, 1e-9)), 0.45 / b.ts
 
 
 def resonance_candidates(r: np.ndarray, ts: float, f_lo: float, f_hi: float,
@@ -148,7 +107,7 @@ def deflection_resonance(x_motor: np.ndarray, x_load: np.ndarray, ts: float, f_l
     f_a = wa / (2.0 * math.pi)
     if not f_lo <= f_a <= f_hi:
         return None
-    return f_a, float(np.clip(c2 / (2.0 * wa), *ZETA_RANGE))
+    return f_a, float(np.clip(c2 / (2.0 * wa), *defaults().compliance_zeta_range))
 
 
 def frf_candidates(effort: np.ndarray, y: np.ndarray, ts: float, f_lo: float, f_hi: float,
@@ -170,12 +129,13 @@ def frf_candidates(effort: np.ndarray, y: np.ndarray, ts: float, f_lo: float, f_
     _, puy = signal.csd(u, x, fs=1.0 / ts, nperseg=nper, detrend="linear")
     # the excited band (where the effort has power), and within it the frequencies where the
     # position follows the effort (coherence): a peak elsewhere is noise over no input
-    excited = (f >= f_lo) & (f <= f_hi) & (puu > EXCITED_SHARE * np.max(puu))
+    excited = (f >= f_lo) & (f <= f_hi) & (puu > defaults().compliance_excited_share * np.max(puu))
     coh = np.abs(puy) ** 2 / np.maximum(puu * pyy, 1e-300)
     if np.count_nonzero(excited) < 3:
         return []
     mag = np.log10(np.abs(puy) / np.maximum(puu, 1e-300) * (2.0 * np.pi * f) ** 2 + 1e-300)
-    peaks, props = signal.find_peaks(np.where(excited & (coh > MIN_COHERENCE), mag, -np.inf),
+    peaks, props = signal.find_peaks(np.where(excited & (coh > defaults().compliance_min_coherence),
+                                              mag, -np.inf),
                                      prominence=0.2)
     dips, _ = signal.find_peaks(np.where(excited, -mag, -np.inf), prominence=0.2)
     out: list[tuple[float, float | None]] = []
@@ -203,8 +163,9 @@ def rigid_from_frf(effort: np.ndarray, y: np.ndarray, ts: float, f_lo: float,
     _, pyy = signal.welch(x, fs=1.0 / ts, nperseg=nper, detrend="linear")
     _, puy = signal.csd(u, x, fs=1.0 / ts, nperseg=nper, detrend="linear")
     coh = np.abs(puy) ** 2 / np.maximum(puu * pyy, 1e-300)
-    sel = ((f > max(f_lo, 0.0)) & (f <= f_hi) & (puu > EXCITED_SHARE * np.max(puu))
-           & (coh > MIN_COHERENCE) & (np.abs(puy) > 0.0))
+    sel = ((f > max(f_lo, 0.0)) & (f <= f_hi)
+           & (puu > defaults().compliance_excited_share * np.max(puu))
+           & (coh > defaults().compliance_min_coherence) & (np.abs(puy) > 0.0))
     if np.count_nonzero(sel) < 3:
         return None
     w = 2.0 * np.pi * f[sel]
@@ -233,15 +194,16 @@ class Compliance(Effect):
     refits_mass = True
 
     def available(self, prep: Prepared) -> bool:
-        # the run must span MIN_CYCLES of a resonance below the top of the band
-        return prep.duration * 0.45 / prep.ts >= 2.0 * MIN_CYCLES
+        # the run must span settings.compliance_min_cycles of a resonance below the top of the band
+        return prep.duration * 0.45 / prep.ts >= 2.0 * defaults().compliance_min_cycles
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         if i == CL.I_CF:
             lo, hi = frequency_range(b)
             return Param(i, True, lo, hi, 1.0)
         if i == CL.I_CZ:
-            return Param(i, True, ZETA_RANGE[0], ZETA_RANGE[1], 1.0)
+            zeta = defaults().compliance_zeta_range
+            return Param(i, True, zeta[0], zeta[1], 1.0)
         return Param(i, False, 0.0, 0.95, 0.1)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
@@ -249,7 +211,8 @@ class Compliance(Effect):
             lo, hi = frequency_range(b)
             return float(np.clip(value, 1.05 * lo, 0.95 * hi))
         if i == CL.I_CZ:
-            return float(np.clip(value, 1.5 * ZETA_RANGE[0], 0.5 * ZETA_RANGE[1]))
+            zeta = defaults().compliance_zeta_range
+            return float(np.clip(value, 1.5 * zeta[0], 0.5 * zeta[1]))
         return float(np.clip(value, 0.02, 0.9))
 
     def probe_step(self, i: int, value: float, b: Bounds) -> float:
@@ -261,7 +224,7 @@ class Compliance(Effect):
         q[CL.I_LOG_MOTOR] = 1.0
         q[CL.I_MEAS_TABLE] = 0.0
         if q[CL.I_CR] <= 0.0:
-            q[CL.I_CR] = START_RATIOS[0]
+            q[CL.I_CR] = defaults().compliance_start_ratios[0]
         return q
 
     def zeroed(self, p: np.ndarray, effects: Sequence[str]) -> np.ndarray:
@@ -284,7 +247,9 @@ class Compliance(Effect):
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:
-        return [({CL.I_CR: START_RATIOS[0]}, {CL.I_CF: f, CL.I_CZ: START_ZETA})
+        cfg = defaults()
+        return [({CL.I_CR: cfg.compliance_start_ratios[0]},
+                 {CL.I_CF: f, CL.I_CZ: cfg.compliance_start_zeta})
                 for f in self._frequencies(prep, b, y)[:2]]
 
     def output_start(self, model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
@@ -321,14 +286,15 @@ class Compliance(Effect):
         loops = [model.controller] + (standard(prep.inputs.loop_ts) if cascade else [])
         rows = []
         for f in freqs[:3]:
-            for ratio in START_RATIOS:
+            for ratio in defaults().compliance_start_ratios:
                 # a peak lies between the anti-resonance and the resonance
                 for f_r in (f, f / math.sqrt(1.0 - ratio)):
                     if not lo < f_r < hi:
                         continue
                     for log_motor, table in sides:
                         q = model.plant.copy()
-                        q[CL.I_CR], q[CL.I_CF], q[CL.I_CZ] = ratio, f_r, START_ZETA
+                        q[CL.I_CR], q[CL.I_CF], q[CL.I_CZ] = (ratio, f_r,
+                                                              defaults().compliance_start_zeta)
                         q[CL.I_LOG_MOTOR], q[CL.I_MEAS_TABLE] = log_motor, table
                         rows.append(q)
         if not rows:
@@ -350,7 +316,7 @@ class Compliance(Effect):
         models = [model.copy(plant=q) for q in rows]
         sse = masked_sse(models)
         if len(loops) > 1:
-            keep = [rows[k] for k in np.argsort(sse)[:START_SHAPES_PER_LOOP]]
+            keep = [rows[k] for k in np.argsort(sse)[:defaults().compliance_start_shapes_per_loop]]
             more = [model.copy(plant=q, controller=loop) for loop in loops[1:] for q in keep]
             models += more
             sse = np.concatenate([sse, masked_sse(more)])
@@ -358,24 +324,27 @@ class Compliance(Effect):
         if not cascade:
             return best
         params = position_params(best, b, controller=True, effects=[self.name])
-        return PositionFit(prep, params, mask, w).run(best, max_iter=START_ITERATIONS).model
+        return PositionFit(prep, params, mask, w).run(
+            best, max_iter=defaults().compliance_start_iterations).model
 
     def open_loop_starts(self, effort: np.ndarray, y: np.ndarray, ts: float
                          ) -> list[dict[int, float]]:
         """The frequency response's resonances: on a motor encoder at the load share of their
         anti-resonance (else at a few shares), on a load-side sensor at a few shares; with
         the rigid body's mass and damping from the response below them."""
-        lo = max(0.5, MIN_CYCLES / max(y.size * ts, 1e-9))
+        lo = max(0.5, defaults().compliance_min_cycles / max(y.size * ts, 1e-9))
         out: list[dict[int, float]] = []
         for f_r, ratio in frf_candidates(effort, y, ts, lo, 0.45 / ts):
             # a motor encoder sees the anti-resonance, whose depth gives the load share; a
             # load-side sensor sees none (a dip may be noise): both are tried
-            pairs = [(r, 0.0) for r in START_RATIOS]
-            pairs += [(ratio, 1.0)] if ratio is not None else [(r, 1.0) for r in START_RATIOS]
+            pairs = [(r, 0.0) for r in defaults().compliance_start_ratios]
+            pairs += ([(ratio, 1.0)] if ratio is not None
+                      else [(r, 1.0) for r in defaults().compliance_start_ratios])
             # the rigid body from the response well below the resonance (and anti-resonance)
             rigid = rigid_from_frf(effort, y, ts, 0.0, 0.3 * f_r)
             body = {CL.I_M: rigid[0], CL.I_B: rigid[1]} if rigid is not None else {}
-            out += [{CL.I_CR: r, CL.I_CF: f_r, CL.I_CZ: START_ZETA, CL.I_LOG_MOTOR: side,
+            out += [{CL.I_CR: r, CL.I_CF: f_r, CL.I_CZ: defaults().compliance_start_zeta,
+                     CL.I_LOG_MOTOR: side,
                      **body} for r, side in pairs]
         return out
 
@@ -383,7 +352,8 @@ class Compliance(Effect):
                  simulate: SimulateFn) -> str | None:
         """The resonance must be where the residual fell: the rigid model's residual rings in
         the band ``0.7 f_a .. 1.3 f_r`` and the compliant one removes most of that ringing
-        (:data:`BAND_RESIDUAL_MAX`, :data:`BAND_SHARE_MIN`; Welch spectra of the residuals,
+        (``settings.compliance_band_residual_max``, ``settings.compliance_band_share_min``;
+        Welch spectra of the residuals,
         weighted by ``f^2`` like :func:`resonance_candidates`)."""
         p = model.plant
         f_r = float(p[CL.I_CF])
@@ -407,7 +377,8 @@ class Compliance(Effect):
         left = float(np.sum(p_with[band])) / rigid_band
         fall = float(np.sum(p_rigid - p_with))
         share = float(np.sum(p_rigid[band] - p_with[band])) / fall if fall > 0.0 else -1.0
-        if left > BAND_RESIDUAL_MAX or share < BAND_SHARE_MIN:
+        cfg = defaults()
+        if left > cfg.compliance_band_residual_max or share < cfg.compliance_band_share_min:
             return (f"{self.name}: the fitted resonance ({f_a:.3g} .. {f_r:.3g} Hz) is not "
                     f"where the residual fell ({100.0 * left:.0f} % of the rigid model's "
                     f"residual left in its band, {100.0 * share:.0f} % of the fall there): a "

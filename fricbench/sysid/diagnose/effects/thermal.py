@@ -23,26 +23,15 @@ from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
 from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 
 if TYPE_CHECKING:
     from fricbench.sysid.diagnose.models import GreyBox
 
-MIN_DURATION_S = 2.0
-"""Shortest run on which a drift can be told from a slow loop, s."""
-
-TAU_GRID = (0.03, 0.1, 0.3, 1.0, 3.0)
-"""Time constants of the start's grid, as fractions of the run's length."""
-
-MIN_TAU_S = 0.5
-"""Shortest thermal time constant, s. Machine structures, screws and motors heat and cool over
-tens of seconds or more; a "drift" that settles in under half a second is the loop settling or
-an error that follows the speed. On the second simulator's posdep/13 (no drift) the heating
-law was fitted with 0.33 s and named; the drifts it does carry were fitted with 1.0..47 s."""
-
 
 def tau_floor(duration: float) -> float:
     """Lower bound of the time constant on a run of ``duration`` s."""
-    return max(duration / 100.0, MIN_TAU_S)
+    return max(duration / 100.0, defaults().thermal_min_tau_s)
 
 
 def heating_speed(prep: Prepared) -> float:
@@ -76,7 +65,7 @@ class ThermalDrift(Effect):
     shape_parameters = (CL.I_THT,)
 
     def available(self, prep: Prepared) -> bool:
-        return prep.duration >= MIN_DURATION_S
+        return prep.duration >= defaults().thermal_min_duration_s
 
     @staticmethod
     def _largest(b: Bounds) -> float:
@@ -115,7 +104,8 @@ class ThermalDrift(Effect):
         t = prep.inputs.t
         v_heat = heating_speed(prep)
         best = (math.inf, 0.0, prep.duration, 0.0)
-        for tau in np.maximum(prep.duration * np.array(TAU_GRID), tau_floor(prep.duration)):
+        for tau in np.maximum(prep.duration * np.array(defaults().thermal_tau_grid),
+                              tau_floor(prep.duration)):
             cols = [(0.0, 1.0 - np.exp(-t / tau))]
             if v_heat > 0.0:
                 cols.append((v_heat, heating_from_reference(prep, tau, v_heat)))
