@@ -1,0 +1,205 @@
+"""The diagnosis' settings in one place (:mod:`fricbench.sysid.diagnose.settings`).
+
+* no module of ``sysid/diagnose`` defines a numeric constant of its own (a few plumbing values
+  aside, each named here with its reason): a tuned value is a field of
+  :class:`DiagnoseSettings`;
+* every field is documented and says whether its value was tuned (``metadata["tuned"]``);
+* the count of tuned fields may only fall (a ratchet towards the issue's 15);
+* a bad value is refused with the field, the value and what was expected.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import pytest
+
+import fricbench.sysid.diagnose as D
+import fricbench.sysid.diagnose.settings as settings_module
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
+
+# Module-level numeric values that are no setting: (module, name) -> why.
+PLUMBING = {
+    ("command.py", "EXIT_OK"): "an exit status of the command line",
+    ("command.py", "EXIT_FAILED"): "an exit status of the command line",
+    ("command.py", "EXIT_BAD_INPUT"): "an exit status of the command line",
+    ("criterion.py", "UNIDENTIFIED"): "a sentinel: the variance factor of a direction the data "
+                                      "do not determine, large enough to read as unknown",
+    ("models.py", "_DIVERGED"): "a sentinel: the residual given to the samples of a diverged "
+                                "simulation, in noise-floor units",
+}
+
+# Tuned fields of DiagnoseSettings at the commit that gathered them (a ratchet: the count may
+# only fall; the one-method issue's target is 15).
+TUNED_AT_MOST = 57
+
+
+def _numeric(node: ast.expr) -> bool:
+    """A number written in the code: a literal, a signed one, or arithmetic of them."""
+    if isinstance(node, ast.Constant):
+        return isinstance(node.value, (int, float)) and not isinstance(node.value, bool)
+    if isinstance(node, ast.UnaryOp):
+        return _numeric(node.operand)
+    if isinstance(node, ast.BinOp):
+        return _numeric(node.left) and _numeric(node.right)
+    return False
+
+
+def _numeric_value(node: ast.expr) -> bool:
+    """A number, or a tuple or list of numbers (None entries allowed beside them)."""
+    if isinstance(node, (ast.Tuple, ast.List)):
+        elts = [e for e in node.elts if not (isinstance(e, ast.Constant) and e.value is None)]
+        return bool(elts) and all(_numeric(e) for e in elts)
+    return _numeric(node)
+
+
+def _module_assignments(body: list[ast.stmt]) -> list[tuple[str, ast.expr]]:
+    """Module-level ``name = value`` (also under a module-level ``if`` or ``try``)."""
+    out: list[tuple[str, ast.expr]] = []
+    for node in body:
+        if isinstance(node, ast.Assign):
+            out += [(t.id, node.value) for t in node.targets if isinstance(t, ast.Name)]
+        elif isinstance(node, ast.AnnAssign) and node.value is not None:
+            if isinstance(node.target, ast.Name):
+                out.append((node.target.id, node.value))
+        elif isinstance(node, ast.If):
+            out += _module_assignments(node.body) + _module_assignments(node.orelse)
+        elif isinstance(node, ast.Try):
+            out += _module_assignments(node.body) + _module_assignments(node.orelse)
+            for handler in node.handlers:
+                out += _module_assignments(handler.body)
+    return out
+
+
+def _numeric_constants() -> set[tuple[str, str]]:
+    folder = Path(D.__file__).parent
+    found = set()
+    for path in sorted(folder.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for name, value in _module_assignments(tree.body):
+            if _numeric_value(value):
+                found.add((path.relative_to(folder).as_posix(), name))
+    return found
+
+
+def test_no_numeric_constant_in_the_diagnosis_outside_its_settings() -> None:
+    new = _numeric_constants() - set(PLUMBING)
+    assert not new, (f"module-level numeric constants in sysid/diagnose: {sorted(new)}; a "
+                     "setting belongs in DiagnoseSettings (sysid/diagnose/settings.py), "
+                     "documented with what it means and where its value came from")
+
+
+def test_the_plumbing_allowed_still_exists() -> None:
+    assert set(PLUMBING) <= _numeric_constants(), "an allowed constant is gone: drop its entry"
+
+
+def test_the_scan_sees_a_constant() -> None:
+    tree = ast.parse("A = 0.5\nB: float = -1e-3\nC = (1, 2 / 3)\nD = (None, 0.25)\n"
+                     "if True:\n    E = 3\nF = 'x'\nG = (True,)\nH = len('ab')\n")
+    found = {name for name, value in _module_assignments(tree.body) if _numeric_value(value)}
+    assert found == {"A", "B", "C", "D", "E"}
+
+
+def _documented() -> dict[str, str]:
+    """The numpydoc ``Parameters`` entries of :class:`DiagnoseSettings`: name -> text."""
+    doc = DiagnoseSettings.__doc__ or ""
+    section = doc.split("Parameters\n    ----------\n", 1)[1]
+    entries: dict[str, str] = {}
+    name = None
+    for line in section.splitlines():
+        head = re.match(r"^    (\w+) : ", line)
+        if head:
+            name = head.group(1)
+            entries[name] = ""
+        elif name is not None and line.startswith("        "):
+            entries[name] += " " + line.strip()
+    return entries
+
+
+def test_every_setting_is_documented_and_says_whether_it_was_tuned() -> None:
+    entries = _documented()
+    names = [f.name for f in dataclasses.fields(DiagnoseSettings)]
+    assert list(entries) == names, "the docstring's entries must be the fields, in their order"
+    for f in dataclasses.fields(DiagnoseSettings):
+        assert isinstance(f.metadata.get("tuned"), bool), f"{f.name}: no metadata['tuned']"
+        text = entries[f.name]
+        assert len(text) > 40, f"{f.name}: say what it means, its unit and where it came from"
+        if f.metadata["tuned"]:
+            assert "Tuned" in text and "Not tuned" not in text, f"{f.name}: {text}"
+        else:
+            assert "Not tuned" in text, f"{f.name}: {text}"
+
+
+def test_the_tuned_values_only_fall() -> None:
+    tuned = sorted(f.name for f in dataclasses.fields(DiagnoseSettings) if f.metadata["tuned"])
+    print(f"{len(tuned)} tuned settings (target 15): {', '.join(tuned)}")
+    assert len(tuned) <= TUNED_AT_MOST, (f"{len(tuned)} tuned settings, more than the "
+                                         f"{TUNED_AT_MOST} there were: {tuned}")
+    assert f"Tuned values: {len(tuned)} today" in (settings_module.__doc__ or ""), (
+        "the settings module's docstring must say how many tuned values there are")
+    assert "target is at most 15" in (settings_module.__doc__ or "")
+
+
+def test_the_defaults_are_valid_and_search_settings_is_the_same_class() -> None:
+    from fricbench.sysid.diagnose import SearchSettings
+    from fricbench.sysid.diagnose.search import SearchSettings as FromSearch
+
+    assert SearchSettings is FromSearch is DiagnoseSettings
+    assert DiagnoseSettings() == DEFAULT_SETTINGS
+    assert SearchSettings(max_steps=3).max_steps == 3
+    assert defaults() is settings_module.DEFAULT_SETTINGS
+    assert DEFAULT_SETTINGS.heldout_gain == DEFAULT_SETTINGS.position_tolerance
+    assert set(DEFAULT_SETTINGS.effects_tried()) >= {"coulomb_friction", "backlash"}
+    assert DiagnoseSettings(candidates=("cogging",)).effects_tried() == ("cogging",)
+
+
+def test_code_without_a_settings_object_reads_the_defaults_when_called(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from fricbench.sysid.diagnose.prepared import substeps
+
+    assert substeps(0.01) == 10  # 1 ms steps of a 10 ms sample
+    monkeypatch.setattr(settings_module, "DEFAULT_SETTINGS",
+                        dataclasses.replace(DEFAULT_SETTINGS, max_step=5e-3))
+    assert substeps(0.01) == 2
+
+
+@pytest.mark.parametrize("name", [f.name for f in dataclasses.fields(DiagnoseSettings)])
+def test_a_nan_is_refused_by_every_setting(name: str) -> None:
+    expect = next(f.metadata["expect"] for f in dataclasses.fields(DiagnoseSettings)
+                  if f.name == name)
+    with pytest.raises(ValueError) as err:
+        DiagnoseSettings(**{name: math.nan})
+    assert str(err.value) == f"{name}=nan: expected {expect}"
+
+
+@pytest.mark.parametrize(("name", "value", "message"), [
+    ("penalty", -1.0, "penalty=-1.0: expected a number >= 0"),
+    ("folds", 1, "folds=1: expected an integer >= 2 (one block held out, at least one to fit "
+                 "on)"),
+    ("max_effects", -1, "max_effects=-1: expected an integer >= 0"),
+    ("max_lag_share", 0.0, "max_lag_share=0.0: expected a share in (0, 0.5]"),
+    ("max_steps", True, "max_steps=True: expected an integer >= 0"),
+    ("n_confirm", 0, "n_confirm=0: expected an integer >= 1"),
+    ("eval_box", 0.5, "eval_box=0.5: expected a number >= 1"),
+    ("sliding_share", 1.0, "sliding_share=1.0: expected a share in (0, 1)"),
+    ("one_block_majority", 1.5, "one_block_majority=1.5: expected a share in (0, 1]"),
+    ("compliance_zeta_range", (0.3, 2e-3), "compliance_zeta_range=(0.3, 0.002): expected a pair "
+                                           "(low, high) with 0 < low < high"),
+    ("delay_steps", (0, -1), "delay_steps=(0, -1): expected a non-empty tuple of integers >= 0"),
+    ("friction_starts", (), "friction_starts=(): expected a non-empty tuple of numbers > 0"),
+    ("law_prefilters", (None, 2.0), "law_prefilters=(None, 2.0): expected a non-empty tuple of "
+                                    "None (unfiltered) or shares of the Nyquist frequency in "
+                                    "(0, 1]"),
+    ("candidates", ("cogging", 1), "candidates=('cogging', 1): expected None (the whole "
+                                   "library) or a tuple of effect names"),
+    ("reach_quantile", 0.5, "reach_quantile=0.5: expected a quantile in (0.5, 1]"),
+])
+def test_a_bad_value_names_the_field_the_value_and_what_was_expected(
+        name: str, value: object, message: str) -> None:
+    with pytest.raises(ValueError) as err:
+        DiagnoseSettings(**{name: value})
+    assert str(err.value) == message
