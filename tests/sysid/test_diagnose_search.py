@@ -120,8 +120,8 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
                                                                         n_params: int) -> None:
     """Parameters fitted on one fold raise the other fold's error even when the extra force
     is zero: the tolerance of the position mode's effort check grows by that much on a short
-    log and stays at :data:`EFFORT_TOLERANCE` on a long one. Measured here by least squares on
-    random regressors (a mass, damping, Coulomb level and ``n_params`` useless extras): the
+    log and stays at ``settings.effort_tolerance`` on a long one. Measured here by least squares
+    on random regressors (a mass, damping, Coulomb level and ``n_params`` useless extras): the
     median inflation of the two-fold held-out error stays under the tolerance."""
     n_dec = n_rows + n_rows // 4
     sliding = np.ones(n_dec, dtype=bool)
