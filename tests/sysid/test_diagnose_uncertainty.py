@@ -84,3 +84,43 @@ def test_a_model_whose_free_run_diverges_reports_nothing(bad: float):
     broken = model.copy()
     broken.plant[CL.I_M] = bad
     assert model_uncertainty(broken, prep, b).sd == {}
+
+
+def _jacobian(rng: np.random.Generator, n: int = 400, p: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    return rng.standard_normal((n, p)) * np.array([1.0, 30.0, 0.2, 5.0])[:p], \
+        rng.standard_normal(n)
+
+
+def test_the_conditional_sd_is_the_covariance_diagonal_when_every_column_counts():
+    """With independent columns the projection's sd is ``sqrt`` of the output-error
+    covariance's diagonal (same ``tau s^2``, same degrees of freedom)."""
+    from fricbench.sysid.diagnose.criterion import parameter_covariance
+    from fricbench.sysid.diagnose.uncertainty import _conditional_sd
+
+    jac, r = _jacobian(np.random.default_rng(3))
+    keep = np.ones(jac.shape[1], dtype=bool)
+    cov = parameter_covariance(jac, r, 100.0)
+    for j in range(jac.shape[1]):
+        assert _conditional_sd(jac, r, 100.0, j, keep) == pytest.approx(
+            math.sqrt(cov[j, j]), rel=1e-9)
+
+
+def test_collinear_other_columns_leak_nothing_into_a_size_and_a_column_in_their_span_is_unseen():
+    """Two loop gains the run cannot tell apart (equal columns) leave a third parameter's sd
+    what it is with one of them alone; a column that the others span has an infinite sd
+    (its size is not seen at all)."""
+    from fricbench.sysid.diagnose.uncertainty import _conditional_sd
+
+    jac, r = _jacobian(np.random.default_rng(4), p=3)
+    twin = np.column_stack([jac, 2.0 * jac[:, 1]])
+    keep3 = np.ones(3, dtype=bool)
+    keep4 = np.ones(4, dtype=bool)
+    alone = _conditional_sd(jac, r, 50.0, 0, keep3)
+    # one parameter more in the count of degrees of freedom: (n - 3) / (n - 4)
+    n = jac.shape[0]
+    assert _conditional_sd(twin, r, 50.0, 0, keep4) == pytest.approx(
+        alone * math.sqrt((n - 3) / (n - 4)), rel=1e-9)
+    assert _conditional_sd(twin, r, 50.0, 3, keep4) == math.inf
+    # held out of ``keep``, the twin no longer takes the column's place
+    keep4[1] = False
+    assert math.isfinite(_conditional_sd(twin, r, 50.0, 3, keep4))

@@ -28,7 +28,7 @@ from fricbench.sysid.diagnose.baselines import (
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
 from fricbench.sysid.diagnose.coverage import Coverage, coverage
-from fricbench.sysid.diagnose.effects import describe_parameters
+from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.models import (
     GreyBox,
     InverseDynamics,
@@ -136,6 +136,7 @@ class DiagnosisResult:
     laws: dict[str, str] = field(default_factory=dict)
     diagnosis_warnings: list[str] = field(default_factory=list)
     mode_comparison: dict[str, object] | None = None
+    not_detected: list[dict[str, object]] = field(default_factory=list)
     validation_coverage: Coverage | None = None
     uncertainty: ModelUncertainty | None = None
 
@@ -219,6 +220,7 @@ class DiagnosisResult:
                                       note="standard deviations from the Jacobian of the "
                                            "free-run error at the final model, every free "
                                            "parameter (loop, damping, effects) in it")
+        out["not_detected"] = self.not_detected
         if self.validation is not None and self.validation_run is not None:
             val: dict[str, object] = {"source": self.validation_run.source,
                                       "position": self.validation.position()}
@@ -840,44 +842,95 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                      "chosen from the sensor resolution against the motion's mean speed (the "
                      "recipe's tenth of the sampling rate would differentiate the sensor's "
                      "steps); --filter-hz and --decimate override")
-    fit: _ModeFit | None = None
-    prep_pos = prep
-    if prep.u is not None:
-        log("linear model: controller law from the effort, inverse dynamics u = M a + B v")
-        linear, idim, bounds, ctrl_err = fit_linear_with_effort(prep)
-        # the effort's free runs judge its forces at a finer step (see settings.effort_max_step)
-        prep = dataclasses.replace(prep, n_sub=max(prep.n_sub, substeps(
-            prep.inputs.loop_ts, 1, max_step=settings.effort_max_step)))
-        w, share, used = _injected(linear.controller, prep)
-        y_lin, _ = simulate_position(linear, prep, w)
-        why = _law_unusable(ctrl_err, prep, y_lin)
-        prep_pos = prepare(dataclasses.replace(run, u=None), cutoff_hz=cutoff_hz, decim=decim,
-                           quantum=quantum)
-        if why is not None:
-            warnings.append(f"{why}: the effort is not used for the loop; the diagnosis runs "
-                            "on the position alone (forces per unit mass)")
-            log(f"warning: {warnings[-1]}")
-        else:
-            fit = _fit_effort(run, prep, linear, idim, bounds, ctrl_err, y_lin,
-                              (w, share, used), force_unit, settings, log, t0)
-            if (ctrl_err > settings.law_exact_pct or not fit.finite
-                    or int(round(prep.ts / settings.loop_ts)) >= 2):
-                fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0, idim)
-                if fit.mode == "position" and fit.comparison is not None:
-                    # what the per-unit-mass forces are in the effort's unit: the mass the
-                    # inverse dynamics gives with Coulomb friction (none when it is not
-                    # identified: on its zero bound, the effort then says nothing of it)
-                    mass = float(idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))[
-                        CL.I_M])
-                    if mass > 0.0 and math.isfinite(mass):
-                        fit.comparison["effort_mass"] = {
-                            f"mass_{force_unit}_s2_m": mass,
-                            "note": "inverse dynamics with Coulomb friction: a force per unit "
-                                    f"mass times this is the force in {force_unit}"}
-    if fit is None:
-        # a law that cannot drive the loop leaves the effort a measured force all the same
-        fit = _fit_position(run, prep_pos, settings, log, t0,
-                            effort_check=idim if prep.u is not None else None)
+    prep0 = prep
+    search_settings = settings
+
+    def fit_modes(settings: DiagnoseSettings) -> tuple[_ModeFit, list[str], dict[str, str]]:
+        """The loop and the effects of the run, searched among ``settings.candidates``."""
+        prep = prep0
+        warnings: list[str] = []
+        laws: dict[str, str] = {}
+        fit: _ModeFit | None = None
+        prep_pos = prep
+        if prep.u is not None:
+            log("linear model: controller law from the effort, inverse dynamics u = M a + B v")
+            linear, idim, bounds, ctrl_err = fit_linear_with_effort(prep)
+            # the effort's free runs judge its forces at a finer step (see settings.effort_max_step)
+            prep = dataclasses.replace(prep, n_sub=max(prep.n_sub, substeps(
+                prep.inputs.loop_ts, 1, max_step=settings.effort_max_step)))
+            w, share, used = _injected(linear.controller, prep)
+            y_lin, _ = simulate_position(linear, prep, w)
+            why = _law_unusable(ctrl_err, prep, y_lin)
+            prep_pos = prepare(dataclasses.replace(run, u=None), cutoff_hz=cutoff_hz, decim=decim,
+                               quantum=quantum)
+            if why is not None:
+                warnings.append(f"{why}: the effort is not used for the loop; the diagnosis runs "
+                                "on the position alone (forces per unit mass)")
+                log(f"warning: {warnings[-1]}")
+            else:
+                fit = _fit_effort(run, prep, linear, idim, bounds, ctrl_err, y_lin,
+                                  (w, share, used), force_unit, settings, log, t0)
+                if (ctrl_err > settings.law_exact_pct or not fit.finite
+                        or int(round(prep.ts / settings.loop_ts)) >= 2):
+                    fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0, idim)
+                    if fit.mode == "position" and fit.comparison is not None:
+                        # what the per-unit-mass forces are in the effort's unit: the mass the
+                        # inverse dynamics gives with Coulomb friction (none when it is not
+                        # identified: on its zero bound, the effort then says nothing of it)
+                        mass = float(idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))[
+                            CL.I_M])
+                        if mass > 0.0 and math.isfinite(mass):
+                            fit.comparison["effort_mass"] = {
+                                f"mass_{force_unit}_s2_m": mass,
+                                "note": "inverse dynamics with Coulomb friction: a force per unit "
+                                        f"mass times this is the force in {force_unit}"}
+        if fit is None:
+            # a law that cannot drive the loop leaves the effort a measured force all the same
+            fit = _fit_position(run, prep_pos, settings, log, t0,
+                                effort_check=idim if prep.u is not None else None)
+        return fit, warnings, laws
+
+    fit, fit_warnings, fit_laws = fit_modes(search_settings)
+    undetected: list[str] = []
+    not_detected: list[dict[str, object]] = []
+    uncertainty = None
+    tried = search_settings.effects_tried()
+    for _ in range(len(tried)):
+        if fit.bounds is None or not fit.finite:
+            break
+        final = fit.search.final.model
+        uncertainty = model_uncertainty(final, fit.prep, fit.bounds,
+                                        _injected(final.controller, fit.prep)[0],
+                                        force_unit=fit.force_unit, settings=search_settings)
+        # an effect another one needs (Coulomb friction under a Stribeck hump) stays with it
+        needed = {r for e in final.effects for r in get_effect(e).requires}
+        within = [e for e in uncertainty.within(search_settings.detection_sd)
+                  if e not in needed and e in tried]
+        if not within:
+            break
+        # a size the data cannot tell from zero is not detected: the least significant such
+        # effect leaves the candidates and the search runs again without it, as an effect a
+        # later one made redundant does (the open loop refits without it)
+        name = min(within, key=lambda e: uncertainty.size_over_sd[e])  # type: ignore[union-attr]
+        not_detected.append({"effect": name,
+                             "size_over_sd": uncertainty.size_over_sd[name],
+                             "n_eff": uncertainty.n_eff,
+                             "parameters": describe_parameters(name, final.plant,
+                                                               fit.force_unit),
+                             "sd": uncertainty.sd[name]})
+        undetected.append(f"{name}: not detected (the held-out error named it, but its fitted "
+                          f"size lies within {search_settings.detection_sd:g} standard "
+                          "deviations of zero: |size|/sd "
+                          f"{uncertainty.size_over_sd[name]:.3g}, the residual worth "
+                          f"{uncertainty.n_eff:.3g} independent samples); the search ran "
+                          "again without it")
+        log(f"warning: {undetected[-1]}")
+        tried = tuple(c for c in tried if c != name)
+        search_settings = dataclasses.replace(search_settings, candidates=tried)
+        fit, fit_warnings, fit_laws = fit_modes(search_settings)
+        uncertainty = None
+    warnings += fit_warnings + undetected
+    laws.update(fit_laws)
     prep, mode, fu, linear, search, train = (fit.prep, fit.mode, fit.force_unit, fit.linear,
                                              fit.search, fit.train)
     final = search.final.model
@@ -923,14 +976,16 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         raise DiagnosisError("the fitted loop diverges in a free run of the training run: no "
                              "valid model of this run")
     warnings += search.warnings
-    uncertainty = None
-    if fit.bounds is not None and fit.finite:
+    if uncertainty is None and fit.bounds is not None and fit.finite:
         uncertainty = model_uncertainty(final, prep, fit.bounds,
-                                        _injected(final.controller, prep)[0], force_unit=fu)
-        for name in uncertainty.within(DEFAULT_SETTINGS.detection_sd):
+                                        _injected(final.controller, prep)[0], force_unit=fu,
+                                        settings=search_settings)
+    if uncertainty is not None:
+        # what stays although within its uncertainty: an effect another one needs
+        for name in uncertainty.within(search_settings.detection_sd):
             warnings.append(
-                f"{name}: the held-out error named it, but its fitted size lies within "
-                f"{DEFAULT_SETTINGS.detection_sd:g} standard deviations of zero "
+                f"{name}: kept, as an effect of the model needs it, but its fitted size lies "
+                f"within {search_settings.detection_sd:g} standard deviations of zero "
                 f"(|size|/sd {uncertainty.size_over_sd[name]:.3g}): weakly determined")
             log(f"warning: {warnings[-1]}")
     return DiagnosisResult(run=run, prep=prep, mode=mode, force_unit=fu, linear=linear,
@@ -938,4 +993,5 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                            validation_run=validate, linear_tf=tf,
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
                            diagnosis_warnings=warnings, mode_comparison=fit.comparison,
-                           validation_coverage=val_coverage, uncertainty=uncertainty)
+                           validation_coverage=val_coverage, uncertainty=uncertainty,
+                           not_detected=not_detected)
