@@ -38,7 +38,7 @@ from fricbench.sysid.diagnose.models import (
 )
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare, substeps
-from fricbench.sysid.diagnose.search import SearchResult, forward_selection
+from fricbench.sysid.diagnose.search import SearchResult, effects_tried, forward_selection
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.uncertainty import ModelUncertainty, model_uncertainty
 from fricbench.sysid.diagnose.verdict import Verdict, judge
@@ -894,7 +894,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     undetected: list[str] = []
     not_detected: list[dict[str, object]] = []
     uncertainty = None
-    tried = search_settings.effects_tried()
+    tried = effects_tried(search_settings)
     for _ in range(len(tried)):
         if fit.bounds is None or not fit.finite:
             break

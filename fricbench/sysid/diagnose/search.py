@@ -44,6 +44,7 @@ from fricbench.sysid.diagnose.controllers import CascadeController
 from fricbench.sysid.diagnose.effects import (
     Effect,
     describe_parameters,
+    effect_names,
     get_effect,
 )
 from fricbench.sysid.diagnose.equation_error import loop_by_equation_error
@@ -67,7 +68,36 @@ from fricbench.sysid.diagnose.settings import DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.signals import fold_blocks
 from fricbench.sysid.io import MIN_STARTS
 
-__all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection"]
+__all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_selection",
+           "effects_tried", "min_position_size", "required_gain"]
+
+
+def effects_tried(settings: DiagnoseSettings) -> tuple[str, ...]:
+    """The effects the closed-loop search tries: ``settings.candidates``, or the whole library
+    as registered now."""
+    return settings.candidates if settings.candidates is not None else effect_names()
+
+
+def min_position_size(settings: DiagnoseSettings, effect: str) -> float:
+    """Smallest rms position contribution of ``effect``, in noise floors."""
+    if get_effect(effect).friction:
+        return settings.min_position_share
+    return max(settings.min_position_share, settings.min_position_share_other)
+
+
+def required_gain(settings: DiagnoseSettings, n_params: int, effect: str | None = None,
+                  judged_on: str = "effort") -> float:
+    """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters.
+
+    A non-friction ``effect`` judged on the position needs ``settings.min_gain_position_other``
+    instead of ``settings.min_gain``.
+    """
+    base = settings.min_gain
+    if (effect is not None and judged_on.startswith("position")
+            and not get_effect(effect).friction):
+        base = max(base, settings.min_gain_position_other)
+    return base + settings.gain_per_param * n_params
+
 
 
 SearchSettings = DiagnoseSettings
@@ -170,7 +200,7 @@ def _shown_by(effect: Effect, prep: Prepared) -> bool:
 
 def _available(model: GreyBox, prep: Prepared, settings: DiagnoseSettings) -> list[str]:
     out = []
-    for name in settings.effects_tried():
+    for name in effects_tried(settings):
         effect = get_effect(name)
         if name in model.effects:
             continue
@@ -377,7 +407,7 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
             _heldout_effort_sse(idim, base_fits), 1e-300)
         size = min(_effect_position_size(fk[k].model, name, prep, w, fk[k].y) for k in (0, 1))
         sc = CandidateScore(name, _n_params(name, effects), rho, "position", size / floor,
-                            size >= settings.min_size(name) * floor,
+                            size >= min_position_size(settings, name) * floor,
                             "judged on the position: the effort shows no more")
         if effort_ratio > 1.0 + settings.effort_tolerance:
             # the measured effort contradicts it: a force the effort does not carry stands in
@@ -414,8 +444,8 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
         if why is None and not np.all(np.isfinite(full.y)):
             why = f"{winner.effect}: the loop with it diverges in a free run of the training run"
         kept = full.cost / max(base_full[k_best].cost, 1e-300)
-        need = math.exp(-settings.required(winner.n_params, winner.effect, winner.judged_on))
-        if _kept_in_refit(winner, why, size, settings.min_size(winner.effect), kept, need,
+        need = math.exp(-required_gain(settings, winner.n_params, winner.effect, winner.judged_on))
+        if _kept_in_refit(winner, why, size, min_position_size(settings, winner.effect), kept, need,
                           floor, warnings):
             return scores, (winner, full.model, full.y)
         log(f"    {winner.effect} rejected: {winner.note}")
@@ -484,8 +514,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     m_new = fitted.model
                     size = _effect_position_size(m_new, name, prep, w, fitted.y)
                     sc = CandidateScore(name, n_par, ratio, "position", size / floor,
-                                        size >= settings.min_size(name) * floor)
-                    if size < settings.negligible_size * settings.min_size(name) * floor:
+                                        size >= min_position_size(settings, name) * floor)
+                    if size < settings.negligible_size * min_position_size(settings, name) * floor:
                         negligible[name] = cur.position_rms
                     proposals[name] = m_new
                 scores.append(sc)
@@ -655,7 +685,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
 
 def _pick(scores: list[CandidateScore], settings: DiagnoseSettings) -> CandidateScore | None:
     ok = [s for s in scores if s.size_ok
-          and s.gain >= settings.required(s.n_params, s.effect, s.judged_on)]
+          and s.gain >= required_gain(settings, s.n_params, s.effect, s.judged_on)]
     if not ok:
         return None
     return max(ok, key=lambda s: s.gain / s.n_params)
@@ -907,7 +937,7 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
     for req, req_sc in by_name.items():
         if req not in confirmed:
             continue
-        for name in settings.effects_tried():
+        for name in effects_tried(settings):
             effect = get_effect(name)
             effects = m.effects + (req, name)
             if (req not in effect.requires or name in m.effects
@@ -937,22 +967,22 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
             size = min(_effect_position_size(fits[k].model, name, prep, None, fits[k].y)
                        for k in (0, 1))
             sc = CandidateScore(name, n_par, rho, "position", size / floor,
-                                size >= settings.min_size(name) * floor,
+                                size >= min_position_size(settings, name) * floor,
                                 f"fitted with {req}, which alone made the held-out error "
                                 f"x{req_sc.heldout_ratio:.3f}")
             scores.append(sc)
             log(f"    fit    {name:28s} with {req}: held-out position error x{rho:.3f} "
                 f"({n_par} par), size {size / floor:.2f} x floor")
             if not (math.isfinite(rho) and sc.size_ok
-                    and sc.gain >= settings.required(n_par, name, "position")):
+                    and sc.gain >= required_gain(settings, n_par, name, "position")):
                 continue
             k_best = min(fits, key=lambda k: fits[k].cost)
             full = _refit(fits[k_best].model, prep, b, 12)
             size = _effect_position_size(full.model, name, prep, None, full.y)
             why = artefact(full.model, name, prep, b) or artefact(full.model, req, prep, b)
             kept = full.cost / max(_half_sse(y, prep), 1e-300)
-            need = math.exp(-settings.required(n_par, name, "position"))
-            if _kept_in_refit(sc, why, size, settings.min_size(name), kept, need, floor,
+            need = math.exp(-required_gain(settings, n_par, name, "position"))
+            if _kept_in_refit(sc, why, size, min_position_size(settings, name), kept, need, floor,
                               warnings):
                 return req, sc, full
             log(f"    {name} with {req} rejected: {sc.note}")
@@ -1123,7 +1153,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                      for k in (0, 1)]
             size = min(sizes)
             sc = CandidateScore(name, n_par, rho, "position", size / floor,
-                                size >= settings.min_size(name) * floor, note)
+                                size >= min_position_size(settings, name) * floor, note)
             effort_note = ""
             if effort_check is not None and get_effect(name).kind == "force":
                 if effort_base is None:  # the model without the candidate: once per step
@@ -1143,7 +1173,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                     effort_note += " rejected"
             scores.append(sc)
             confirmed[name] = fits
-            if size < settings.negligible_size * settings.min_size(name) * floor:
+            if size < settings.negligible_size * min_position_size(settings, name) * floor:
                 negligible.add(name)
             log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
                 f"size {size / floor:.2f} x floor{effort_note}"
@@ -1169,9 +1199,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             # (an in-sample fit does better than a held-out one): a gain that vanished there
             # was a fold's accident
             kept = full.cost / max(_half_sse(cur.y, prep), 1e-300)
-            need = math.exp(-settings.required(winner.n_params, winner.effect,
+            need = math.exp(-required_gain(settings, winner.n_params, winner.effect,
                                                winner.judged_on))
-            if _kept_in_refit(winner, why, size, settings.min_size(winner.effect), kept,
+            if _kept_in_refit(winner, why, size, min_position_size(settings, winner.effect), kept,
                               need, floor, warnings):
                 accepted = (winner, full)
                 break
@@ -1205,7 +1235,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         winner, full = accepted
         runners_up = {sc.effect: confirmed[sc.effect] for sc in scores
                       if sc is not winner and sc.size_ok and sc.judged_on == "position"
-                      and sc.gain >= settings.required(sc.n_params, sc.effect, sc.judged_on)}
+                      and sc.gain >= required_gain(settings, sc.n_params, sc.effect, sc.judged_on)}
         step = Step(winner.effect, full.model, full.y, _rms(prep.x - full.y),
                     float(np.max(np.abs(prep.x - full.y))), None, scores, winner.heldout_ratio)
         steps.append(step)
@@ -1279,7 +1309,7 @@ def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: Diagn
     may explain the same residual better (position-dependent friction stands in for the
     Stribeck hump until the hump is in). Each effect no other one requires is taken out
     and the model refitted on each fold: when the held-out error rises by less than the gain
-    the effect would need to be added (``DiagnoseSettings.required``), it is redundant.
+    the effect would need to be added (:func:`required_gain`), it is redundant.
     Returns the least useful such effect and its ``-ln`` held-out gain.
     """
     effects = model.effects
@@ -1292,7 +1322,7 @@ def _redundant_effect(model: GreyBox, prep: Prepared, b: Bounds, settings: Diagn
             continue
         without_sse = _heldout_position_sse(model.without(name), prep, b, budget_iter)
         gain = -math.log(max(with_sse, 1e-300) / max(without_sse, 1e-300))
-        need = settings.required(_n_params(name, effects), name, "position")
+        need = required_gain(settings, _n_params(name, effects), name, "position")
         log(f"    without {name:28s} held-out position error x{math.exp(gain):.3f} "
             f"(needs x{math.exp(need):.3f})")
         if gain < need and (worst is None or gain - need < worst[1]):
@@ -1392,7 +1422,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                                    warnings)
         # no effect may make the free-run position worse: prune the final model, and search
         # again without what was pruned (so that every step is one the final model keeps)
-        for _ in range(len(settings.effects_tried())):
+        for _ in range(len(effects_tried(settings))):
             pruned = _position_prune(steps[-1].model, prep, idim, w, log)
             if not pruned:
                 break
@@ -1404,7 +1434,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                 f"-> {_length(prep, with_)} rms)")
             dropped = {name for name, _, _ in pruned}
             settings = dataclasses.replace(settings, candidates=tuple(
-                c for c in settings.effects_tried() if c not in dropped))
+                c for c in effects_tried(settings) if c not in dropped))
             steps, reason, floor = _search_with_effort(model, prep, idim, b, settings, w, log,
                                                        warnings)
     else:
@@ -1414,19 +1444,20 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
                                                       effort_check=effort_check)
         # backward elimination: an effect a later one made unnecessary is dropped and the
         # search run again without it (so that every step is one the final model keeps)
-        for _ in range(len(settings.effects_tried())):
+        for _ in range(len(effects_tried(settings))):
             redundant = _redundant_effect(steps[-1].model, prep, b, settings, log)
             if redundant is None:
                 break
             name = redundant[0]
             kept_steps, kept_reason, kept_floor = steps, reason, floor
             kept_warnings = list(warnings)
-            need = settings.required(_n_params(name, steps[-1].model.effects), name, "position")
+            need = required_gain(settings, _n_params(name, steps[-1].model.effects), name,
+                                 "position")
             warnings.append(f"dropped {name}: once the later effects are in, it no longer "
                             "cuts the held-out position error by what adding it requires")
             log(f"  - {name}: redundant, search again without it")
             settings = dataclasses.replace(settings, candidates=tuple(
-                c for c in settings.effects_tried() if c != name))
+                c for c in effects_tried(settings) if c != name))
             steps, reason, floor = _search_without_effort(model, y, prep, b, settings, log,
                                                           jac, warnings, alt_loops,
                                                           alt_starts=alt_starts,

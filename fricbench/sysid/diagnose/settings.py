@@ -160,9 +160,9 @@ class DiagnoseSettings:
         against the others. Tuned on the second simulator's tuning seeds (commit 93e6bf4).
     negligible_size : float
         Closed-loop search. A real fit whose effect moves the position by less than this
-        fraction of the size it must reach (:meth:`min_size`) found the effect negligible on
-        this run: it is not fitted again unless its screen promises a cut. Tuned (a saving of
-        time, checked on the second simulator's tuning seeds; commit da50413).
+        fraction of the size it must reach (``search.min_position_size``) found the effect
+        negligible on this run: it is not fitted again unless its screen promises a cut. Tuned
+        (a saving of time, checked on the second simulator's tuning seeds; commit da50413).
     negligible_residual_drop : float
         Closed-loop search. With an effort, an output effect found negligible is fitted again
         once the position rms has fallen below this fraction of the rms it was found
@@ -580,38 +580,6 @@ class DiagnoseSettings:
         tolerance within which an effect may leave the free-run position (a change within it
         is no change)."""
         return self.position_tolerance
-
-    def effects_tried(self) -> tuple[str, ...]:
-        """The effects the closed-loop search tries: :attr:`candidates`, or the whole library
-        as registered now."""
-        if self.candidates is not None:
-            return self.candidates
-        from fricbench.sysid.diagnose.effects import effect_names
-
-        return effect_names()
-
-    def min_size(self, effect: str) -> float:
-        """Smallest rms position contribution of ``effect``, in noise floors."""
-        from fricbench.sysid.diagnose.effects import get_effect
-
-        if get_effect(effect).friction:
-            return self.min_position_share
-        return max(self.min_position_share, self.min_position_share_other)
-
-    def required(self, n_params: int, effect: str | None = None,
-                 judged_on: str = "effort") -> float:
-        """Required ``-ln`` held-out ratio for an effect with ``n_params`` parameters.
-
-        A non-friction ``effect`` judged on the position needs
-        :attr:`min_gain_position_other` instead of :attr:`min_gain`.
-        """
-        from fricbench.sysid.diagnose.effects import get_effect
-
-        base = self.min_gain
-        if (effect is not None and judged_on.startswith("position")
-                and not get_effect(effect).friction):
-            base = max(base, self.min_gain_position_other)
-        return base + self.gain_per_param * n_params
 
 
 DEFAULT_SETTINGS = DiagnoseSettings()
