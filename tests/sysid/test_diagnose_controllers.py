@@ -299,7 +299,7 @@ def test_a_fast_loop_clipping_against_large_friction_is_found_from_a_slow_log() 
     mass, kt = case.plant.mass, case.ctrl.kt
     slow = D._loop_base(prep, run.n_reversals)
     fast = D._loop_base(prep.with_loop(10), run.n_reversals)
-    assert fast.cost < DEFAULT_SETTINGS.loop_rate_margin * slow.cost, (fast.cost, slow.cost)
+    assert fast.cost < slow.cost, (fast.cost, slow.cost)
     assert fast.limit is not None and fast.limit.model is not None
     truth = case.ctrl.limit * kt / mass
     assert fast.limit.level == pytest.approx(truth, rel=0.15)

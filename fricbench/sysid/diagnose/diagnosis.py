@@ -28,6 +28,7 @@ from fricbench.sysid.diagnose.baselines import (
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
 from fricbench.sysid.diagnose.coverage import Coverage, coverage
+from fricbench.sysid.diagnose.criterion import criterion_change, effective_samples
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.models import (
     GreyBox,
@@ -139,6 +140,9 @@ class DiagnosisResult:
     not_detected: list[dict[str, object]] = field(default_factory=list)
     validation_coverage: Coverage | None = None
     uncertainty: ModelUncertainty | None = None
+    loop_decisions: list[dict[str, object]] = field(default_factory=list)
+    """Loop structures tried beside the chosen one (a faster loop, a drive limit) and the
+    criterion's decision on each."""
 
     @property
     def warnings(self) -> list[str]:
@@ -254,6 +258,7 @@ class DiagnosisResult:
         out["controller_laws"] = dict(self.laws)
         if self.mode_comparison is not None:
             out["mode_comparison"] = self.mode_comparison
+        out["loop_structure"] = list(self.loop_decisions)
         out["stop_reason"] = self.search.stop_reason
         out["rejected_at_last_step"] = [c.to_dict() for c in rejected]
         out["noise_floor"] = dict(self.prep.noise.to_dict(),
@@ -397,6 +402,9 @@ class _ModeFit:
     laws: dict[str, str] = field(default_factory=dict)
     comparison: dict[str, object] | None = None
     bounds: Bounds | None = None
+    loop_decisions: list[dict[str, object]] = field(default_factory=list)
+    """The loop structures tried beside this one and how the criterion judged them
+    (:func:`_loop_choice`)."""
 
     @property
     def finite(self) -> bool:
@@ -578,33 +586,25 @@ def _fit_position(run: RunData, prep: Prepared, settings: DiagnoseSettings,
         except DiagnosisError:
             fast = None
     fast_note = None
-    other = None
-    if fast is not None and fast.cost < settings.loop_rate_margin * slow.cost:
-        log(f"  loop simulated at {n_fast} periods per logged sample")
-        main = fast
-        fast_note = _fast_loop_note(prep, n_fast, fast.cost, slow.cost, "with friction")
-    else:
-        main = slow
-        if fast is not None and fast.cost < settings.loop_rate_both * slow.cost:
-            other = fast
-    best = _search_position(main, run, settings, log, t0, effort_check, fast_note=fast_note)
-    best_base = main
-    # the loop fitted with friction alone cannot tell a faster loop or a drive limit from
-    # their absence; the effects the search adds can (a drift or a cogging the other loop's
-    # gains took part of): the search runs from those bases too, and a model is kept by the
-    # same "below half" margin on its final squared error
-    if other is not None and best.sse > 0.0:
-        log(f"  the loop at {n_fast} periods per logged sample fits about as well "
-            f"({100 * other.cost / slow.cost:.2g} % of the squared error): the search also "
-            "runs with it")
-        second = _search_position(other, run, settings, log, t0, effort_check)
-        if second.finite and second.sse < settings.loop_rate_margin * best.sse:
-            second.notes.insert(1, _fast_loop_note(prep, n_fast, second.sse, best.sse,
-                                                   "with the effects found"))
-            log(f"  kept: the loop at {n_fast} periods per logged sample")
-            best, best_base, fast_note = second, other, second.notes[1]
-        else:
-            log("  kept: the loop at the log's rate")
+    best = _search_position(slow, run, settings, log, t0, effort_check)
+    best_base = slow
+    decisions: list[dict[str, object]] = []
+    # a loop structure is a candidate of the search as an effect is: the loop at the log's
+    # rate and the faster loop of a drive, with and without a drive limit, each searched
+    # for its effects and judged by the one criterion on held-out error (_loop_choice). The
+    # faster loop is searched when its fit with friction is closer to the data than the
+    # slow one's (in-sample: the cheap filter of a costly candidate)
+    if fast is not None and fast.cost < slow.cost and best.sse > 0.0:
+        log(f"  the loop at {n_fast} periods per logged sample fits the run with friction "
+            f"better ({100 * fast.cost / slow.cost:.2g} % of the squared error): the search "
+            "also runs with it")
+        note = _fast_loop_note(prep, n_fast, fast.cost, slow.cost, "with friction")
+        second = _search_position(fast, run, settings, log, t0, effort_check, fast_note=note)
+        decision = _loop_choice(second, best, 0, f"the loop at {n_fast} periods per logged "
+                                "sample, against the log's rate", settings, log)
+        decisions.append(decision)
+        if decision["accepted"]:
+            best, best_base, fast_note = second, fast, note
     tentative = _with_limit(best_base) if best.sse > 0.0 else None
     if tentative is not None and tentative.limit is not None:
         near = tentative.limit
@@ -613,17 +613,58 @@ def _fit_position(run: RunData, prep: Prepared, settings: DiagnoseSettings,
             "search also runs with it")
         limited = _search_position(tentative, run, settings, log, t0, effort_check,
                                    fast_note=fast_note)
-        if limited.finite and limited.sse < settings.limit_margin * best.sse:
+        # the limit is one fitted parameter more
+        decision = _loop_choice(limited, best, 1, "a drive limit, against none", settings, log)
+        decisions.append(decision)
+        if decision["accepted"]:
             limited.notes.append(
-                f"the drive's limit is kept although the loop with friction alone fitted about "
-                f"as well without it: with the effects found the diagnosis with it leaves "
-                f"{100 * limited.sse / best.sse:.2g} % of the squared position error of the "
-                "diagnosis without it")
-            log("  kept: the drive limit")
+                "the drive's limit is kept although the loop with friction alone fitted about "
+                "as well without it: with the effects found it lowers the held-out criterion "
+                f"by {-cast(float, decision['criterion_change']):.3g}")
             best = limited
-        else:
-            log("  kept: no drive limit")
+    best.loop_decisions = decisions
     return best
+
+
+def _loop_choice(new: _ModeFit, old: _ModeFit, extra_params: int, what: str,
+                 settings: DiagnoseSettings, log: Callable[[str], None]) -> dict[str, object]:
+    """Whether the loop structure of ``new`` replaces ``old``'s, by the one criterion.
+
+    ``J = n_eff ln(SSE / n) + penalty k`` (:mod:`~fricbench.sysid.diagnose.criterion`) on each
+    diagnosis' free-run error of the whole training run, Akaike's own estimate of the held-out
+    error: ``k`` counts the final model's free parameters (loop gains, damping, effects; plus
+    ``extra_params`` for what the new structure fixed from the data beforehand, a drive
+    limit's level), ``n_eff`` is that of the old structure's residual. Not blocked folds, as
+    the effect search uses: a whole loop refitted on half the run extrapolates its gains
+    to the other half by far more than either structure misses it by (measured on a
+    second-simulator tuning run, a PID at 1 kHz logged at 100 Hz: 16 um in-sample, 290 um on
+    the held-out fold), so the folds judge the fold fit, not the structure. A new structure
+    whose free run diverges never wins. Returns the decision, JSON-ready.
+    """
+    out: dict[str, object] = {"candidate": what}
+    if not new.finite or new.bounds is None or old.bounds is None:
+        out.update(accepted=False, why="its free run of the training run diverges")
+        log(f"  {what}: diverges, rejected")
+        return out
+    k_new = len(position_params(new.search.final.model, new.bounds, controller=True))
+    k_new += extra_params
+    k_old = len(position_params(old.search.final.model, old.bounds, controller=True))
+    n = int(old.prep.n)
+    n_eff = effective_samples(old.prep.x - old.train.y_after, settings.max_lag_share)
+    change = criterion_change(new.sse, old.sse, k_new, k_old, n_eff, settings.penalty)
+    accepted = bool(change < 0.0)
+    out.update(n_params=k_new, n_params_other=k_old, n_eff=n_eff, accepted=accepted,
+               why="lowers the criterion" if accepted else "does not lower the criterion")
+    # finite numbers only (the other structure's run may have diverged)
+    for key, sse in (("position_rms_m", new.sse), ("position_rms_other_m", old.sse)):
+        if math.isfinite(sse):
+            out[key] = math.sqrt(sse / n)
+    if math.isfinite(change):
+        out["criterion_change"] = change
+    log(f"  {what}: position rms {math.sqrt(new.sse / n):.4g} against "
+        f"{math.sqrt(old.sse / n):.4g} m, criterion {change:+.3g}: "
+        f"{'kept' if accepted else 'rejected'}")
+    return out
 
 
 def _fast_loop_note(prep: Prepared, n_fast: int, cost: float, slow_cost: float, what: str
@@ -994,4 +1035,4 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
                            diagnosis_warnings=warnings, mode_comparison=fit.comparison,
                            validation_coverage=val_coverage, uncertainty=uncertainty,
-                           not_detected=not_detected)
+                           not_detected=not_detected, loop_decisions=fit.loop_decisions)

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 57 today; the one-method issue's target is at most 15.**
+**Tuned values: 55 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -213,16 +213,6 @@ class DiagnoseSettings:
         Loop structure. Period of the model's loop when the log is slower, s: drives close
         their position loop at 1 kHz or faster, and a loop simulated at a 100 Hz log's rate
         cannot reproduce one. Not tuned: physics of drives.
-    loop_rate_margin : float
-        Loop structure. The faster loop of ``loop_ts`` is kept only when its fits (the loop with
-        friction, and with the drive's limit when one shows) leave less than this share of the
-        squared error of the loop at the log's rate ("below half"). Tuned on the second
-        simulator's tuning seeds (0.1 in commit cd1c6dd, 0.5 on seeds 1-14's 100 Hz runs).
-    loop_rate_both : float
-        Loop structure. When the faster loop's fits leave less than this share of the slow
-        loop's squared error (but not ``loop_rate_margin``), the search runs with both loops
-        and keeps the faster one when its final model leaves less than ``loop_rate_margin`` of
-        the other's. Tuned on the second simulator's tuning seeds (commit 64b622d).
     pid_margin : float
         Loop structure. A PID loop model replaces the cascade only when its fitted squared
         error is below this fraction of the cascade's (it has one more parameter). Tuned: set
@@ -485,8 +475,6 @@ class DiagnoseSettings:
 
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------
     loop_ts: float = _setting(1e-3, tuned=False, check=_POSITIVE)
-    loop_rate_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
-    loop_rate_both: float = _setting(1.0, tuned=True, check=_POSITIVE)
     pid_margin: float = _setting(0.8, tuned=True, check=_POSITIVE)
     mode_margin: float = _setting(0.5, tuned=True, check=_NONNEG)
     law_exact_pct: float = _setting(0.5, tuned=True, check=_NONNEG)
