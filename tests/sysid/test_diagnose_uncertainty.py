@@ -94,8 +94,8 @@ def _jacobian(rng: np.random.Generator, n: int = 400, p: int = 4) -> tuple[np.nd
 def test_the_conditional_sd_is_the_covariance_diagonal_when_every_column_counts():
     """With independent columns the projection's sd is ``sqrt`` of the output-error
     covariance's diagonal (same ``tau s^2``, same degrees of freedom)."""
+    from fricbench.sysid.diagnose.criterion import conditional_sd as _conditional_sd
     from fricbench.sysid.diagnose.criterion import parameter_covariance
-    from fricbench.sysid.diagnose.uncertainty import _conditional_sd
 
     jac, r = _jacobian(np.random.default_rng(3))
     keep = np.ones(jac.shape[1], dtype=bool)
@@ -109,7 +109,7 @@ def test_collinear_other_columns_leak_nothing_into_a_size_and_a_column_in_their_
     """Two loop gains the run cannot tell apart (equal columns) leave a third parameter's sd
     what it is with one of them alone; a column that the others span has an infinite sd
     (its size is not seen at all)."""
-    from fricbench.sysid.diagnose.uncertainty import _conditional_sd
+    from fricbench.sysid.diagnose.criterion import conditional_sd as _conditional_sd
 
     jac, r = _jacobian(np.random.default_rng(4), p=3)
     twin = np.column_stack([jac, 2.0 * jac[:, 1]])
@@ -124,3 +124,44 @@ def test_collinear_other_columns_leak_nothing_into_a_size_and_a_column_in_their_
     # held out of ``keep``, the twin no longer takes the column's place
     keep4[1] = False
     assert math.isfinite(_conditional_sd(twin, r, 50.0, 3, keep4))
+
+
+def test_kept_columns_hold_a_bound_and_an_unmoved_column():
+    from fricbench.sysid.diagnose.criterion import kept_columns
+
+    jac, _ = _jacobian(np.random.default_rng(5))
+    jac[:, 2] = 0.0
+    keep = kept_columns(jac, np.array([False, True, False, False]))
+    assert keep.tolist() == [True, False, False, True]
+
+
+def test_the_size_test_holds_the_shape_and_reads_the_bounds():
+    """The size is tested with its shape held: where the shape's column nearly repeats the
+    size's, the marginal sd is many times the test's; a size on its upper bound is detected,
+    one held out (a lower bound, moving nothing) is not; the least significant within the
+    threshold is the one named."""
+    from fricbench.sysid.diagnose.criterion import (
+        conditional_sd,
+        held_covariance,
+        least_detected,
+        size_over_sd,
+    )
+
+    rng = np.random.default_rng(6)
+    jac, r = _jacobian(rng, p=3)
+    jac[:, 2] = jac[:, 1] + 1e-3 * rng.standard_normal(jac.shape[0])  # 2: the size's shape
+    keep = np.ones(3, dtype=bool)
+    values, slope = np.array([0.0, 1.0, 1.0]), np.array([1.0, 2.0, 1.0])
+    none = np.zeros(3, dtype=bool)
+    z = size_over_sd(jac, r, 80.0, keep, [1], [2], values=values, slope=slope, upper=none)
+    held = keep.copy()
+    held[2] = False
+    assert z == pytest.approx(1.0 / (2.0 * conditional_sd(jac, r, 80.0, 1, held)), rel=1e-12)
+    marginal = 2.0 * math.sqrt(held_covariance(jac, r, 80.0, keep)[1, 1])
+    assert 1.0 / marginal < z / 10.0
+    assert size_over_sd(jac, r, 80.0, keep, [1], [2], values=values, slope=slope,
+                        upper=np.array([False, True, False])) == math.inf
+    assert size_over_sd(jac, r, 80.0, np.array([True, False, True]), [1], [2], values=values,
+                        slope=slope, upper=none) == 0.0
+    assert least_detected({"a": 3.0, "b": 1.5, "c": 0.5, "d": 0.5}, 2.0) == ("c", 0.5)
+    assert least_detected({"a": 3.0}, 2.0) is None

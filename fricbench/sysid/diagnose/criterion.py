@@ -22,17 +22,30 @@ changes that a free-run error asks for:
 
 The parameter covariance of an output-error fit is ``s^2 (J^T J)^-1`` (Ljung 1999, eq. 9.18),
 inflated by the same ``tau`` for a correlated residual.
+
+**Detection**, one rule for the closed and the open loop: an effect whose every size (a gap, a
+level, an amplitude; not a shape: a period, a time constant, a Stribeck velocity) lies within
+``detection_sd`` standard deviations of zero is not detected (:func:`size_over_sd`,
+:func:`least_detected`). The columns of the Jacobian kept in the covariance are those the
+residual moves and that are not on a bound of their range (:func:`kept_columns`); the size is
+tested with its effect's shape held at its fitted value, since a shape means nothing when the
+size is zero (Davies 1977), and its standard deviation is that of its column projected off the
+other kept columns (:func:`conditional_sd`). The standard deviations *reported* beside the
+parameters stay the marginal ones (:func:`held_covariance`, every kept parameter free, the
+shapes too): they say how well the value is known; the detection asks another question,
+whether the size can be told from zero, under which the shape is not defined.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
 __all__ = ["effective_samples", "criterion", "criterion_change", "parameter_covariance",
-           "described_sd", "UNIDENTIFIED"]
+           "described_sd", "kept_columns", "held_covariance", "conditional_sd", "size_over_sd",
+           "least_detected", "UNIDENTIFIED"]
 
 UNIDENTIFIED = 1e100
 """Variance factor given to a direction of the parameters the data do not determine."""
@@ -142,3 +155,136 @@ def described_sd(describe: Callable[[np.ndarray], Mapping[str, float]], row: np.
             var = UNIDENTIFIED
         out[key] = math.sqrt(var) if var > 0.0 else 0.0
     return out
+
+
+def kept_columns(jac: np.ndarray, held: np.ndarray) -> np.ndarray:
+    """Columns of a Jacobian the covariance keeps: moved by the residual and not ``held``.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the residual in the fit's own (scaled) coordinates, so that a column's
+        norm compares with the others'.
+    held : ndarray of bool, shape (p,)
+        Columns on a bound of their range at the optimum: an active constraint, no free
+        parameter there (a Stribeck velocity at its smallest).
+
+    Returns
+    -------
+    ndarray of bool, shape (p,)
+        False for a held column and for one the residual does not move (its norm below
+        ``1e-10`` of the largest, :func:`parameter_covariance`'s own rank cut): such a
+        parameter is held at its value and the others' covariance taken without it, so that
+        rounding along its direction leaks into none of them.
+    """
+    norms = np.sqrt(np.sum(jac ** 2, axis=0))
+    moved = norms > 1e-10 * max(float(np.max(norms, initial=0.0)), 1e-300)
+    return moved & ~np.asarray(held, dtype=bool)
+
+
+def held_covariance(jac: np.ndarray, residual: np.ndarray, n_eff: float, keep: np.ndarray
+                    ) -> np.ndarray:
+    """Covariance of every column of ``jac``, those not in ``keep`` held at their values
+    (variance :data:`UNIDENTIFIED`, no covariance with the others).
+
+    The marginal covariance of the kept parameters (:func:`parameter_covariance`, all of them
+    free together): what the reported standard deviations are taken from."""
+    p = jac.shape[1]
+    cov = np.zeros((p, p))
+    cov[np.diag_indices(p)] = UNIDENTIFIED
+    kept = np.flatnonzero(keep)
+    if kept.size:
+        cov[np.ix_(kept, kept)] = parameter_covariance(jac[:, kept], residual, n_eff)
+    return cov
+
+
+def conditional_sd(jac: np.ndarray, residual: np.ndarray, n_eff: float, j: int,
+                   keep: np.ndarray) -> float:
+    """Standard deviation of column ``j``'s parameter, the other kept columns free.
+
+    ``sqrt(tau s^2) / |P J_j|``, ``P`` the projection off the span of the other kept
+    columns: the diagonal of ``tau s^2 (J^T J)^-1`` where that is invertible, and still right
+    where the other columns are collinear among themselves (two loop gains the run cannot tell
+    apart say nothing of a cogging's amplitude), which the inverse's regularised directions
+    would leak into every parameter. Infinite when column ``j`` lies in their span.
+    """
+    n = jac.shape[0]
+    others = np.flatnonzero(keep)
+    others = others[others != j]
+    target = jac[:, j]
+    if others.size:
+        a = jac[:, others]
+        norms = np.sqrt(np.sum(a ** 2, axis=0))
+        a = a / np.where(norms > 0.0, norms, 1.0)
+        coef = np.linalg.lstsq(a, target, rcond=1e-10)[0]
+        target = target - a @ coef
+    along = float(np.linalg.norm(target))
+    dof = max(n - int(others.size) - 1, 1)
+    s2 = float(np.dot(residual, residual)) / dof
+    tau = n / max(n_eff, 1.0)
+    if along <= 1e-12 * max(float(np.linalg.norm(jac[:, j])), 1e-300):
+        return math.inf
+    return math.sqrt(tau * s2) / along
+
+
+def size_over_sd(jac: np.ndarray, residual: np.ndarray, n_eff: float, keep: np.ndarray,
+                 sizes: Sequence[int], shapes: Sequence[int], *, values: np.ndarray,
+                 slope: np.ndarray, upper: np.ndarray) -> float:
+    """The detection statistic of one effect: the largest ``|size| / sd`` over its sizes.
+
+    Each size's standard deviation is :func:`conditional_sd` with the effect's ``shapes``
+    held at their fitted values: a shape (a period, a time constant, a Stribeck velocity)
+    means nothing when the size is zero (Davies 1977), so the test of the size does not let
+    it roam; a drift still short of its asymptote determines its slope, not its level and
+    time constant apart, and it is there all the same. The marginal standard deviation (the
+    shape free, :func:`held_covariance`) answers how well the size is known, not whether it
+    can be told from zero.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the residual in the fit's coordinates (those ``keep`` was judged on).
+    residual : ndarray, shape (n,)
+    n_eff : float
+    keep : ndarray of bool, shape (p,)
+        :func:`kept_columns`.
+    sizes, shapes : sequence of int
+        Columns of the effect's sizes and of its shape parameters (those fitted).
+    values : ndarray, shape (p,)
+        Each column's parameter value (the sizes' in the reported units).
+    slope : ndarray, shape (p,)
+        d value / d coordinate of each column.
+    upper : ndarray of bool, shape (p,)
+        Columns on the upper bound of their range: a size pushed there is as large as the
+        range lets it be (infinitely many sd from zero); one on its lower bound or moving
+        nothing shows no size (0).
+
+    Returns
+    -------
+    float
+        0 for an effect with no size column.
+    """
+    keep_e = keep.copy()
+    keep_e[list(shapes)] = False
+    zs = [0.0]
+    for j in sizes:
+        if upper[j]:
+            zs.append(math.inf)
+        elif not keep_e[j]:
+            zs.append(0.0)
+        else:
+            sd = conditional_sd(jac, residual, n_eff, j, keep_e) * abs(float(slope[j]))
+            zs.append(abs(float(values[j])) / sd if sd > 0.0 else math.inf)
+    return max(zs)
+
+
+def least_detected(size_over_sd: Mapping[str, float], detection_sd: float
+                   ) -> tuple[str, float] | None:
+    """The effect whose statistic (:func:`size_over_sd`) lies within ``detection_sd``, the
+    least significant first (the first of equals), with that statistic; None when every
+    effect stands clear. The loops leave it out and fit again, until none is left."""
+    worst: tuple[str, float] | None = None
+    for name, z in size_over_sd.items():
+        if z <= detection_sd and (worst is None or z < worst[1]):
+            worst = (name, z)
+    return worst

@@ -35,10 +35,11 @@ from fricbench.axis import plant as PL
 from fricbench.axis.open_loop import initial_state, simulate_open_loop
 from fricbench.run_events import motion_sign
 from fricbench.sysid.diagnose.criterion import (
-    UNIDENTIFIED,
     described_sd,
     effective_samples,
-    parameter_covariance,
+    held_covariance,
+    kept_columns,
+    least_detected,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, size_entries
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
@@ -499,39 +500,32 @@ def free_run_floor(fold_fits: dict[int, np.ndarray], effort: np.ndarray, y: np.n
 def _uncertainty(fit: _Fit, settings: DiagnoseSettings) -> tuple[np.ndarray, float]:
     """Standard deviations of the fit's free entries (in ``fit.idx`` order) and ``n_eff``.
 
-    An entry on a bound of its range at the optimum (an active constraint, so no free
-    parameter there: a Stribeck velocity at its smallest) or one the residual does not move
-    at all (its Jacobian column, in the fit's scaled units, below ``1e-10`` of the largest, the
-    covariance's own rank cut) is held at its value: its standard deviation is that of
-    :data:`~fricbench.sysid.diagnose.criterion.UNIDENTIFIED`, and the others' covariance is
-    taken without it, so rounding along its direction leaks into none of them."""
+    The marginal ones, reported beside the parameters: an entry on a bound of its range at the
+    optimum (a Stribeck velocity at its smallest) or one the residual does not move (judged in
+    the fit's scaled units) is held at its value, with the closed loop's rule
+    (:func:`~fricbench.sysid.diagnose.criterion.kept_columns`): its standard deviation is that
+    of :data:`~fricbench.sysid.diagnose.criterion.UNIDENTIFIED`, and the others' covariance is
+    taken without it (:func:`~fricbench.sysid.diagnose.criterion.held_covariance`)."""
     n_eff = effective_samples(fit.residual, settings.max_lag_share)
     scale = fit.scale if fit.scale.size == fit.jac.shape[1] else np.ones(fit.jac.shape[1])
-    norms = np.sqrt(np.sum((fit.jac * scale[None, :]) ** 2, axis=0))
-    keep = norms > 1e-10 * max(float(np.max(norms, initial=0.0)), 1e-300)
-    if fit.on_bound.size == keep.size:
-        keep &= ~fit.on_bound
-    sd = np.full(fit.jac.shape[1], math.sqrt(UNIDENTIFIED))
-    if np.any(keep):
-        cov = parameter_covariance(fit.jac[:, keep], fit.residual, n_eff)
-        sd[keep] = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    return sd, n_eff
+    held = fit.on_bound if fit.on_bound.size == scale.size else np.zeros(scale.size, dtype=bool)
+    keep = kept_columns(fit.jac * scale[None, :], held)
+    cov = held_covariance(fit.jac, fit.residual, n_eff, keep)
+    return np.sqrt(np.maximum(np.diag(cov), 0.0)), n_eff
 
 
 def _least_detected(fit: _Fit, sd: np.ndarray, settings: DiagnoseSettings
                     ) -> tuple[str, float] | None:
     """The effect whose sizes all lie within ``detection_sd`` standard deviations of zero,
     the least significant first, with its largest ``|size| / sd``; None when every one is
-    detected."""
-    worst: tuple[str, float] | None = None
+    detected (:func:`~fricbench.sysid.diagnose.criterion.least_detected`)."""
+    z: dict[str, float] = {}
     for name in fit.model.effects:
         sizes = size_entries(name, fit.idx)
-        if not sizes:
-            continue
-        z = max(abs(fit.model.plant[i]) / max(sd[fit.idx.index(i)], 1e-300) for i in sizes)
-        if z <= settings.detection_sd and (worst is None or z < worst[1]):
-            worst = (name, z)
-    return worst
+        if sizes:
+            z[name] = max(abs(fit.model.plant[i]) / max(sd[fit.idx.index(i)], 1e-300)
+                          for i in sizes)
+    return least_detected(z, settings.detection_sd)
 
 
 def describe_uncertainty(fit_model: OpenLoopModel, idx: Sequence[int], sd: np.ndarray,

@@ -13,7 +13,11 @@ is reported as uncertain, not as fitted.
 An effect whose every size (its parameters that are not a shape: a gap, a level, an
 amplitude; not a period or a time constant) lies within
 :attr:`~fricbench.sysid.diagnose.settings.DiagnoseSettings.detection_sd` standard deviations
-of zero is reported as within its uncertainty.
+of zero is reported as within its uncertainty. That test is the open loop's too, in one place
+(:func:`~fricbench.sysid.diagnose.criterion.size_over_sd`): the size's standard deviation is
+taken with its shape held and projected off the other kept columns, so it is not the marginal
+one reported in ``sd`` (which says how well a value is known, the shape free; the test asks
+whether the size can be told from zero, where the shape means nothing).
 """
 
 from __future__ import annotations
@@ -25,10 +29,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fricbench.sysid.diagnose.criterion import (
-    UNIDENTIFIED,
     described_sd,
     effective_samples,
-    parameter_covariance,
+    held_covariance,
+    kept_columns,
+    size_over_sd,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, size_entries
 from fricbench.sysid.diagnose.leastsq import batched_jacobian
@@ -53,11 +58,13 @@ class ModelUncertainty:
     Attributes
     ----------
     sd : dict
-        Per effect, the standard deviation of each value :func:`describe_parameters` reports
-        (same keys, same SI units).
+        Per effect, the marginal standard deviation of each value :func:`describe_parameters`
+        reports (same keys, same SI units; every kept parameter free, shapes too).
     size_over_sd : dict
-        Per effect, the largest ``|size| / sd`` over its sizes (inf when the data pin a size
-        exactly, never NaN); absent for an effect with no size parameter.
+        Per effect, the largest ``|size| / sd`` over its sizes, ``sd`` the conditional one of
+        the detection test (:func:`~fricbench.sysid.diagnose.criterion.size_over_sd`), not
+        the marginal one in ``sd`` (inf when the data pin a size exactly, never NaN); absent
+        for an effect with no size parameter.
     n_eff : float
         Independent samples the residual is worth (the covariance's ``n / tau``).
     n_params : int
@@ -124,15 +131,11 @@ def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray |
         return ModelUncertainty()
     jac = jacobian(theta0)
     n_eff = effective_samples(r0, settings.max_lag_share)
-    # an entry on a bound of its range (an active constraint: no free parameter there) or one
-    # the residual does not move is held at its value, as in the open loop: its variance is
-    # UNIDENTIFIED and the others' covariance is taken without it, so that rounding along its
-    # direction leaks into none of them
-    norms = np.sqrt(np.sum(jac ** 2, axis=0))
-    moved = norms > 1e-10 * max(float(np.max(norms, initial=0.0)), 1e-300)
+    # an entry on a bound of its range or one the residual does not move is held at its value,
+    # out of the covariance: the rule both loops share (criterion.kept_columns)
     hits = [p.bound_hit(p.from_theta(t)) for p, t in zip(params, theta0, strict=True)]
-    keep = moved & np.array([h is None for h in hits], dtype=bool)
-    cov_theta = _held_covariance(jac, r0, n_eff, keep)
+    keep = kept_columns(jac, np.array([h is not None for h in hits], dtype=bool))
+    cov_theta = held_covariance(jac, r0, n_eff, keep)
     # theta -> physical value: d value / d theta is the value (a logarithm) or the scale
     slope = np.array([p.from_theta(t) if p.log else p.scale
                       for p, t in zip(params, theta0, strict=True)])
@@ -141,6 +144,9 @@ def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray |
     idx = [int(params[j].target) for j in plant_cols]
     cov_plant = cov[np.ix_(plant_cols, plant_cols)]
     row = model.plant
+    values = np.array([float(row[p.target]) if isinstance(p.target, int) else math.nan
+                       for p in params])
+    upper = np.array([h == "upper" for h in hits], dtype=bool)
     fd = np.array([1e-6 * max(abs(float(row[i])), 1e-9) for i in idx])
     out = ModelUncertainty(n_eff=n_eff, n_params=len(params))
     col = {int(params[j].target): j for j in plant_cols}
@@ -151,64 +157,9 @@ def model_uncertainty(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray |
         sizes = size_entries(name, idx)
         if not sizes:
             continue
-        # a shape (a period, a time constant, a Stribeck velocity) means nothing when the size
-        # is zero, so the test of the size holds the shape at its fitted value (Davies 1977):
-        # a drift still short of its asymptote determines its slope, not its level and time
-        # constant apart, and it is there all the same
+        # the detection test both loops share (criterion.size_over_sd): the shape held, each
+        # size's sd from its column projected off the other kept ones
         shapes = [col[i] for i in get_effect(name).shape_parameters if i in col]
-        keep_e = keep.copy()
-        keep_e[shapes] = False
-        zs = []
-        for i in sizes:
-            j = col[i]
-            if hits[j] == "upper":
-                zs.append(math.inf)
-            elif not keep_e[j]:
-                zs.append(0.0)  # on its lower bound, or moving nothing: no size seen
-            else:
-                sd = _conditional_sd(jac, r0, n_eff, j, keep_e) * abs(float(slope[j]))
-                zs.append(abs(float(row[i])) / sd if sd > 0.0 else math.inf)
-        out.size_over_sd[name] = max(zs)
+        out.size_over_sd[name] = size_over_sd(jac, r0, n_eff, keep, [col[i] for i in sizes],
+                                              shapes, values=values, slope=slope, upper=upper)
     return out
-
-
-def _conditional_sd(jac: np.ndarray, r0: np.ndarray, n_eff: float, j: int, keep: np.ndarray
-                    ) -> float:
-    """Standard deviation of column ``j``'s parameter, the other kept columns free.
-
-    ``sqrt(tau s^2) / |P J_j|``, ``P`` the projection off the span of the other kept
-    columns: the diagonal of ``tau s^2 (J^T J)^-1`` where that is invertible, and still right
-    where the other columns are collinear among themselves (two loop gains the run cannot tell
-    apart say nothing of a cogging's amplitude), which the inverse's regularised directions
-    would leak into every parameter. Infinite when column ``j`` lies in their span.
-    """
-    n = jac.shape[0]
-    others = np.flatnonzero(keep)
-    others = others[others != j]
-    target = jac[:, j]
-    if others.size:
-        a = jac[:, others]
-        norms = np.sqrt(np.sum(a ** 2, axis=0))
-        a = a / np.where(norms > 0.0, norms, 1.0)
-        coef = np.linalg.lstsq(a, target, rcond=1e-10)[0]
-        target = target - a @ coef
-    along = float(np.linalg.norm(target))
-    dof = max(n - int(others.size) - 1, 1)
-    s2 = float(np.dot(r0, r0)) / dof
-    tau = n / max(n_eff, 1.0)
-    if along <= 1e-12 * max(float(np.linalg.norm(jac[:, j])), 1e-300):
-        return math.inf
-    return math.sqrt(tau * s2) / along
-
-
-def _held_covariance(jac: np.ndarray, r0: np.ndarray, n_eff: float, keep: np.ndarray
-                     ) -> np.ndarray:
-    """Covariance of every column of ``jac``, those not in ``keep`` held at their values
-    (variance :data:`UNIDENTIFIED`, no covariance with the others)."""
-    p = jac.shape[1]
-    cov = np.zeros((p, p))
-    cov[np.diag_indices(p)] = UNIDENTIFIED
-    kept = np.flatnonzero(keep)
-    if kept.size:
-        cov[np.ix_(kept, kept)] = parameter_covariance(jac[:, kept], r0, n_eff)
-    return cov
