@@ -197,7 +197,7 @@ def test_an_absent_effect_fitted_anyway_is_not_detected(effect: str) -> None:
     fit = O._fit_multistart((*BASE_EFFECTS, effect), u, y, TS, [(0, y.size)], 20)
     sd, n_eff = O._uncertainty(fit, DEFAULT_SETTINGS)
     assert 1.0 <= n_eff <= y.size
-    weak = O._least_detected(fit, sd, DEFAULT_SETTINGS)
+    weak = O._least_detected(fit, n_eff, DEFAULT_SETTINGS)
     assert weak is not None and weak[0] == effect
     # the friction that is there is detected, its standard deviation a small share of it
     i = fit.idx.index(PL.FC)

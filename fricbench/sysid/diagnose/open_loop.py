@@ -40,6 +40,7 @@ from fricbench.sysid.diagnose.criterion import (
     held_covariance,
     kept_columns,
     least_detected,
+    size_over_sd,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, size_entries
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
@@ -282,6 +283,7 @@ class _Fit:
     residual: np.ndarray = field(repr=False)
     scale: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     on_bound: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
+    on_upper: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
 
 
 def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
@@ -313,9 +315,12 @@ def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
     p = p0.copy()
     p[idx] = res.x * scale
     # dr/dp = dr/dz / scale: the Jacobian in the plant row's own units
+    edges = [_on_bound(i, p[i], ts, sc) for i in idx]
     return _Fit(OpenLoopModel(p, model.effects), float(np.sqrt(np.mean(res.fun ** 2))), idx,
                 np.asarray(res.jac) / scale[None, :], np.asarray(res.fun), scale,
-                np.array([_on_bound(i, p[i], ts, sc) is not None for i in idx], dtype=bool))
+                np.array([e is not None for e in edges], dtype=bool),
+                np.array([e is not None and e == _bounds(i, ts, sc)[1]
+                          for i, e in zip(idx, edges, strict=True)], dtype=bool))
 
 
 def fit_open_loop(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
@@ -514,18 +519,38 @@ def _uncertainty(fit: _Fit, settings: DiagnoseSettings) -> tuple[np.ndarray, flo
     return np.sqrt(np.maximum(np.diag(cov), 0.0)), n_eff
 
 
-def _least_detected(fit: _Fit, sd: np.ndarray, settings: DiagnoseSettings
-                    ) -> tuple[str, float] | None:
-    """The effect whose sizes all lie within ``detection_sd`` standard deviations of zero,
-    the least significant first, with its largest ``|size| / sd``; None when every one is
-    detected (:func:`~fricbench.sysid.diagnose.criterion.least_detected`)."""
-    z: dict[str, float] = {}
+def _size_over_sd(fit: _Fit, n_eff: float) -> dict[str, float]:
+    """Per effect with a size, the detection statistic of the closed loop's one rule
+    (:func:`~fricbench.sysid.diagnose.criterion.size_over_sd`): the largest ``|size| / sd``,
+    ``sd`` taken with the effect's fitted shape (a Stribeck velocity, a resonance) held at its
+    value and projected off the other kept columns, not the marginal ``sd`` of
+    :func:`_uncertainty` that is reported (how well a value is known, the shape free)."""
+    p = len(fit.idx)
+    scale = fit.scale if fit.scale.size == p else np.ones(p)
+    held = fit.on_bound if fit.on_bound.size == p else np.zeros(p, dtype=bool)
+    upper = fit.on_upper if fit.on_upper.size == p else np.zeros(p, dtype=bool)
+    # the fit's own coordinates (z = value / scale): those the columns are kept in
+    jac = fit.jac * scale[None, :]
+    keep = kept_columns(jac, held)
+    values = fit.model.plant[list(fit.idx)]
+    col = {i: j for j, i in enumerate(fit.idx)}
+    out: dict[str, float] = {}
     for name in fit.model.effects:
         sizes = size_entries(name, fit.idx)
-        if sizes:
-            z[name] = max(abs(fit.model.plant[i]) / max(sd[fit.idx.index(i)], 1e-300)
-                          for i in sizes)
-    return least_detected(z, settings.detection_sd)
+        if not sizes:
+            continue
+        shapes = [col[i] for i in get_effect(name).shape_parameters if i in col]
+        out[name] = size_over_sd(jac, fit.residual, n_eff, keep, [col[i] for i in sizes],
+                                 shapes, values=values, slope=scale, upper=upper)
+    return out
+
+
+def _least_detected(fit: _Fit, n_eff: float, settings: DiagnoseSettings
+                    ) -> tuple[str, float] | None:
+    """The effect whose sizes all lie within ``detection_sd`` standard deviations of zero
+    (:func:`_size_over_sd`), the least significant first, with its statistic; None when every
+    one is detected (:func:`~fricbench.sysid.diagnose.criterion.least_detected`)."""
+    return least_detected(_size_over_sd(fit, n_eff), settings.detection_sd)
 
 
 def describe_uncertainty(fit_model: OpenLoopModel, idx: Sequence[int], sd: np.ndarray,
@@ -616,7 +641,7 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
     sd, n_eff = _uncertainty(fit, settings)
     not_detected: list[dict[str, object]] = []
     for _ in range(len(effects)):
-        weak = _least_detected(fit, sd, settings)
+        weak = _least_detected(fit, n_eff, settings)
         if weak is None:
             break
         name, z = weak
