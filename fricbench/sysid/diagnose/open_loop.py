@@ -587,8 +587,9 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
     The chosen structure is then fitted on the whole run by its simulation error (all its
     parameters together, from the blocks' fits), the standard deviations of its parameters
     taken from the Jacobian at that optimum; an effect whose every size lies within
-    :attr:`~DiagnoseSettings.detection_sd` of zero is not detected: it leaves the model, which
-    is fitted again without it.
+    :attr:`~DiagnoseSettings.detection_sd` of zero is not detected (the closed loop's test,
+    :func:`_size_over_sd`: its fitted shape held): it leaves the model, which is fitted again
+    without it.
 
     Parameters
     ----------
