@@ -491,3 +491,49 @@ def test_a_loop_faster_than_the_log_is_its_fine_run_at_the_logged_samples() -> N
         with pytest.raises(ValueError, match="n_loop"):
             LoopInputs(t=ref.t, ts=ref.ts, xr=ref.x, vr=vr, ar=vr, x0=0.0, v0=0.0,
                        n_loop=bad)  # type: ignore[arg-type]
+
+
+def test_a_run_simulated_again_is_the_run_simulated_first():
+    """The free runs kept (:class:`models._FreeRunCache`) come back bit for bit: a model
+    simulated again, alone, twice in one batch, beside other rows or without its effort."""
+    from fricbench.sysid.diagnose import models as M
+
+    ref = _reference(2.0)
+    axis = Axis()
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
+    base = _grey_box_of(axis)
+    other = base.copy(controller=base.controller.with_values(kp=base.controller.kp * 1.1))
+    pid = base.copy(controller=base.controller.with_values(kpi=50.0, vel_pole=0.3))
+    clipped = base.copy()
+    clipped.plant[CL.I_IMAX] = 0.5  # a positional law (the drive clips)
+    models = [base, other, pid, clipped]
+    fresh = []
+    for m in models:
+        parts, laws, na, nc, pads = _law_of(m, prep)
+        fresh.append(M._simulate_rows([m], parts, laws, prep.inputs, prep.n_sub, na, nc, pads,
+                                      None, None, 0.0, False))
+    y, u, status = simulate_models(models, prep)
+    # the rows of a batch are padded to its widest law: kept apart by their widths
+    y2, u2, _ = simulate_models([pid, base, base, clipped], prep, effort=False)
+    y3, u3, _ = simulate_models([base], prep)
+    assert np.array_equal(y2[1], y2[2]) and np.array_equal(y3[0], y2[1])
+    assert np.array_equal(u3[0], u[0]) and np.array_equal(y2[0], y[2])
+    for k, m in enumerate(models):
+        y1, u1, s1, _ = fresh[k]
+        alone, u_alone, _ = simulate_models([m], prep)
+        assert np.array_equal(alone[0], y1[0], equal_nan=True)
+        assert np.array_equal(u_alone[0], u1[0], equal_nan=True)
+    assert np.array_equal(y[0], y3[0]) and status.tolist() == [0, 0, 0, 0]
+
+
+def _law_of(m: GreyBox, prep) -> tuple:
+    """``(parts, laws, na, nc, pads)`` of one model alone, computed afresh."""
+    pos = bool(np.isfinite(m.plant[CL.I_IMAX]))
+    if pos:
+        law = m.controller.positional(prep.inputs)
+        part = (law.a, law.c, law.r, law.q_init, law.y_init)
+        pads = (law.a2.shape[0], law.c2.shape[0])
+    else:
+        law, part, pads = None, m.controller.arx(prep.inputs), None
+    return [part], [law], part[0].shape[0], part[1].shape[0], pads

@@ -286,7 +286,7 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
     # ranked with one plant substep per sample instead of prep.n_sub: a ranking of starts
     # (the fits run at prep.n_sub), at half the cost of the grid on a long run
     if grid:
-        ys, _, status = simulate_inputs(grid, prep.inputs, 1)
+        ys, _, status = simulate_inputs(grid, prep.inputs, 1, effort=False)
         sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y))
                         else np.inf for y, s in zip(ys, status, strict=True)])
         starts += [grid[i] for i in np.argsort(sse)[:n_best] if np.isfinite(sse[i])]

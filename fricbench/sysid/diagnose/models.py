@@ -15,7 +15,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import threading
+import weakref
+from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -81,21 +85,24 @@ class GreyBox:
 
 def simulate_models(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None = None,
                     noise: np.ndarray | None = None, quant: float = 0.0,
-                    other: np.ndarray | None = None,
+                    other: np.ndarray | None = None, *, effort: bool = True,
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Free-run position of several models on ``prep``'s reference, in parallel.
 
     ``noise`` (m) and ``quant`` (m) add sensor noise and quantisation (for the noise floor);
     ``other`` (N, K), when given, receives the other encoder's position (the load's when the
     model logs the motor). Returns ``(y, u, status)`` with shapes (N, K), (N, K), (N,).
+    With ``effort=False`` the caller does not need ``u`` (it may come back NaN): a run is
+    then kept without its effort, and more runs fit the cache of :class:`_FreeRunCache`.
     """
-    return simulate_inputs(models, prep.inputs, prep.n_sub, w, noise, quant, other)
+    return simulate_inputs(models, prep.inputs, prep.n_sub, w, noise, quant, other,
+                           effort=effort)
 
 
 def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
                     w: np.ndarray | None = None, noise: np.ndarray | None = None,
-                    quant: float = 0.0, other: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    quant: float = 0.0, other: np.ndarray | None = None, *,
+                    effort: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`simulate_models` on bare loop inputs (a reference without a measured run).
 
     With ``inp.n_loop`` > 1 the loop runs on :attr:`LoopInputs.fine` (``w`` and ``noise``
@@ -107,14 +114,18 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
         n_f = f.t.shape[0]
         hold = (lambda s: None if s is None else np.repeat(np.asarray(s, dtype=float), k)[:n_f])
         o_f = None if other is None else np.empty((other.shape[0], n_f))
-        y, u, status = simulate_inputs(models, f, n_sub, hold(w), hold(noise), quant, o_f)
+        y, u, status = simulate_inputs(models, f, n_sub, hold(w), hold(noise), quant, o_f,
+                                       effort=effort)
         if other is not None and o_f is not None:
             other[...] = o_f[:, ::k]
         return np.ascontiguousarray(y[:, ::k]), np.ascontiguousarray(u[:, ::k]), status
     n = int(inp.t.shape[0])
-    cache: dict[object, tuple] = {}
+    # the rows of one call that share a controller (a finite-difference Jacobian) convert it
+    # once: the first controller of a value in the call gives the law of all that equal it
+    local: dict[object, tuple] = {}
     parts = []
     laws: list[PositionalLaw | None] = []
+    sources = []
     for m in models:
         # a parametric loop whose drive clips runs in positional form (its integral held
         # while clipped); an identified law recurses on the clipped effort it was fitted to,
@@ -122,19 +133,75 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
         pos = ((isinstance(m.controller, CascadeController)
                 or (isinstance(m.controller, ArxController) and m.controller.clamped))
                and bool(np.isfinite(m.plant[CL.I_IMAX])))
-        # rows of a finite-difference Jacobian often share the controller: convert it once
         key = ((m.controller, pos) if isinstance(m.controller, CascadeController)
                else (id(m.controller), pos))
-        if key not in cache:
-            if pos:
-                plaw = m.controller.positional(inp)
-                cache[key] = ((plaw.a, plaw.c, plaw.r, plaw.q_init, plaw.y_init), plaw)
-            else:
-                cache[key] = (m.controller.arx(inp), None)
-        parts.append(cache[key][0])
-        laws.append(cache[key][1])
+        if key not in local:
+            local[key] = _FREE_RUNS.law(inp, m.controller, pos)
+        source, part, law = local[key]
+        parts.append(part)
+        laws.append(law)
+        sources.append(source)
     na = max(p[0].shape[0] for p in parts)
     nc = max(p[1].shape[0] for p in parts)
+    n_rows = len(models)
+    pads: tuple[int, int] | None = None
+    if any(law is not None for law in laws):
+        pads = (max(law.a2.shape[0] for law in laws if law is not None),
+                max(law.c2.shape[0] for law in laws if law is not None))
+    # free runs already simulated on these inputs (noise-free only): a row's run depends on
+    # its plant, its law and the padded widths of the batch's law arrays, nothing else of
+    # the batch (each row runs alone in the kernel)
+    keys: list[tuple | None] = [None] * n_rows
+    if noise is None and quant == 0.0:
+        keys = [(src, m.plant.tobytes(), int(n_sub), na, nc,
+                 pads if law is not None else None, None if w is None else id(w))
+                for m, src, law in zip(models, sources, laws, strict=True)]
+    Y = np.empty((n_rows, n))
+    U = np.empty((n_rows, n))
+    status = np.zeros(n_rows, dtype=np.int64)
+    todo: list[int] = []
+    first: dict[tuple, int] = {}
+    same: list[tuple[int, int]] = []
+    for i, rk in enumerate(keys):
+        hit = None if rk is None else _FREE_RUNS.run(inp, rk, m=models[i], w=w,
+                                                       other=other is not None, effort=effort)
+        if hit is not None:
+            Y[i], U[i], status[i] = hit[0], math.nan if hit[1] is None else hit[1], hit[3]
+            if other is not None:
+                other[i] = hit[2]
+        elif rk is not None and rk in first:
+            same.append((i, first[rk]))
+        else:
+            if rk is not None:
+                first[rk] = i
+            todo.append(i)
+    if todo:
+        y, u, st, y2 = _simulate_rows([models[i] for i in todo], [parts[i] for i in todo],
+                                      [laws[i] for i in todo], inp, n_sub, na, nc, pads, w,
+                                      noise, quant, other is not None)
+        for j, i in enumerate(todo):
+            Y[i], U[i], status[i] = y[j], u[j], st[j]
+            if other is not None and y2 is not None:
+                other[i] = y2[j]
+            rk = keys[i]
+            if rk is not None:
+                _FREE_RUNS.store(inp, rk, models[i], w, y[j], u[j] if effort else None,
+                                 None if y2 is None else y2[j], int(st[j]))
+    for i, j in same:
+        Y[i], U[i], status[i] = Y[j], U[j], status[j]
+        if other is not None:
+            other[i] = other[j]
+    return Y, U, status
+
+
+def _simulate_rows(models: Sequence[GreyBox], parts: Sequence[tuple],
+                   laws: Sequence[PositionalLaw | None], inp: LoopInputs, n_sub: int,
+                   na: int, nc: int, pads: tuple[int, int] | None, w: np.ndarray | None,
+                   noise: np.ndarray | None, quant: float, want_other: bool
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """One batch of the kernel: ``models`` with their laws' arrays padded to ``na``, ``nc``
+    (and ``pads`` for the positional laws' increments). Returns ``(y, u, status, other)``."""
+    n = int(inp.t.shape[0])
     n_rows = len(models)
     A = np.zeros((n_rows, na))
     C = np.zeros((n_rows, nc))
@@ -148,9 +215,8 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
         U0[i, : u0.shape[0]] = u0
     P = np.stack([m.plant for m in models])
     extra: dict[str, np.ndarray] = {}
-    if any(law is not None for law in laws):
-        na2 = max(law.a2.shape[0] for law in laws if law is not None)
-        nc2 = max(law.c2.shape[0] for law in laws if law is not None)
+    if pads is not None and any(law is not None for law in laws):
+        na2, nc2 = pads
         extra = {"positional": np.array([law is not None for law in laws]),
                  "a2": np.zeros((n_rows, na2)), "c2": np.zeros((n_rows, nc2)),
                  "r2": np.zeros((n_rows, n)), "g_init": np.zeros((n_rows, na2)),
@@ -163,9 +229,122 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
             extra["r2"][i] = law.r2
             extra["g_init"][i, : law.g_init.shape[0]] = law.g_init
             extra["i_init"][i] = law.i_init
-    return CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
-                             v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
-                             quant=quant, other=other, **extra)  # type: ignore[arg-type]
+    other = np.empty((n_rows, n)) if want_other else None
+    y, u, status = CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
+                                     v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
+                                     quant=quant, other=other,
+                                     **extra)  # type: ignore[arg-type]
+    return y, u, status, other
+
+
+class _FreeRunCache:
+    """The laws and noise-free free runs already computed on each set of loop inputs.
+
+    The search simulates the same model many times: the fits of both folds start from the same
+    model (their first Jacobian is the same batch of runs), a model's size is measured on the
+    run its fit has just simulated, the screens and starts try the same grids. A run is a pure
+    function of its plant row, its law and the padded widths of its batch's law arrays, so it
+    is kept by those (the row's bytes, the law's exact parameters) and handed back as it was
+    computed. Least recently used entries go first once ``budget`` bytes are held; the entries
+    of a set of inputs go with it. Only the arrays are kept, never handed out: callers get
+    copies.
+
+    Parameters
+    ----------
+    budget : int
+        Bytes of arrays held at most (laws' reference parts and runs' outputs together).
+    """
+
+    def __init__(self, budget: int = 256 * 2**20) -> None:
+        self.budget = budget
+        self._entries: OrderedDict[tuple, tuple] = OrderedDict()
+        self._bytes = 0
+        self._lock = threading.Lock()
+        self._inputs: set[int] = set()
+
+    def _watch(self, inp: LoopInputs) -> int:
+        """The key of ``inp``, its entries dropped when it is collected."""
+        k = id(inp)
+        with self._lock:
+            if k not in self._inputs:
+                self._inputs.add(k)
+                weakref.finalize(inp, self._drop, k)
+        return k
+
+    def _drop(self, k: int) -> None:
+        with self._lock:
+            self._inputs.discard(k)
+            for key in [key for key in self._entries if key[0] == k]:
+                self._bytes -= self._entries.pop(key)[0]
+
+    def _get(self, key: tuple) -> tuple | None:
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is not None:
+                self._entries.move_to_end(key)
+            return entry
+
+    def _put(self, key: tuple, entry: tuple) -> None:
+        with self._lock:
+            old = self._entries.pop(key, None)
+            if old is not None:
+                self._bytes -= old[0]
+            if entry[0] > self.budget:
+                return
+            self._entries[key] = entry
+            self._bytes += entry[0]
+            while self._bytes > self.budget:
+                self._bytes -= self._entries.popitem(last=False)[1][0]
+
+    def law(self, inp: LoopInputs, ctrl: CascadeController | ArxController, pos: bool
+            ) -> tuple[tuple, tuple, PositionalLaw | None]:
+        """``(source, arrays, positional law)`` of ``ctrl`` on ``inp``: ``source`` names the
+        law exactly (a cascade's parameters to the bit, an identified law by identity)."""
+        if isinstance(ctrl, CascadeController):
+            source: tuple = ("cascade", pos, np.array(dataclasses.astuple(ctrl),
+                                                      dtype=float).tobytes())
+        else:
+            source = ("arx", pos, id(ctrl))
+        key = (self._watch(inp), "law", source)
+        entry = self._get(key)
+        # an identified law is known by identity: the entry holds it, so its id is not reused
+        if entry is not None and (isinstance(ctrl, CascadeController) or entry[1] is ctrl):
+            return source, entry[2], entry[3]
+        plaw: PositionalLaw | None = None
+        if pos:
+            plaw = ctrl.positional(inp)
+            arrays = (plaw.a, plaw.c, plaw.r, plaw.q_init, plaw.y_init)
+        else:
+            arrays = ctrl.arx(inp)
+        size = sum(a.nbytes for a in arrays) + (0 if plaw is None else plaw.r2.nbytes)
+        self._put(key, (size, ctrl, arrays, plaw))
+        return source, arrays, plaw
+
+    def run(self, inp: LoopInputs, key: tuple, *, m: GreyBox, w: np.ndarray | None,
+            other: bool, effort: bool) -> tuple | None:
+        """``(y, u, other, status)`` of a run kept under ``key``, or None (``u`` None when
+        it was kept without its effort, and ``effort`` is False)."""
+        entry = self._get((self._watch(inp), "run", key))
+        if entry is None or entry[1] is not w:
+            return None
+        if key[0][0] == "arx" and entry[2] is not m.controller:
+            return None
+        if (other and entry[5] is None) or (effort and entry[4] is None):
+            return None
+        return entry[3], entry[4], entry[5], entry[6]
+
+    def store(self, inp: LoopInputs, key: tuple, m: GreyBox, w: np.ndarray | None,
+              y: np.ndarray, u: np.ndarray | None, other: np.ndarray | None, status: int
+              ) -> None:
+        """Keep a run (copies of its rows) under ``key`` (without its effort: ``u`` None)."""
+        size = y.nbytes + sum(a.nbytes for a in (u, other) if a is not None)
+        # the entry holds ``w`` and an identified law: the ids in its key stay theirs
+        self._put((self._watch(inp), "run", key),
+                  (size, w, m.controller, y.copy(), None if u is None else u.copy(),
+                   None if other is None else other.copy(), status))
+
+
+_FREE_RUNS = _FreeRunCache()
 
 
 def simulate_position(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,
@@ -388,7 +567,7 @@ class PositionFit:
         other = None
         if self.prep.x_load is not None:
             other = np.empty((len(models), self.prep.n))
-        ys, _, _ = simulate_models(models, self.prep, self.w, other=other)
+        ys, _, _ = simulate_models(models, self.prep, self.w, other=other, effort=False)
         return ys, other
 
     def run(self, model: GreyBox, max_iter: int = 15) -> PositionFitResult:
@@ -471,7 +650,7 @@ class JointPositionFit:
         """Stacked scaled residuals of each model, shape (len(models), total samples)."""
         parts = []
         for prep in self.preps:
-            ys, _, _ = simulate_models(models, prep)
+            ys, _, _ = simulate_models(models, prep, effort=False)
             r = (prep.x[None, :] - ys) / max(prep.noise.rms, 1e-9)
             parts.append(np.where(np.isfinite(r), r, _DIVERGED))
         return np.concatenate(parts, axis=1)
