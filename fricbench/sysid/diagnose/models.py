@@ -301,7 +301,7 @@ class _FreeRunCache:
         """``(source, arrays, positional law)`` of ``ctrl`` on ``inp``: ``source`` names the
         law exactly (a cascade's parameters to the bit, an identified law by identity)."""
         if isinstance(ctrl, CascadeController):
-            source: tuple = ("cascade", pos, np.array(dataclasses.astuple(ctrl),
+            source: tuple = ("cascade", pos, np.array([getattr(ctrl, f) for f in _CASCADE_FIELDS],
                                                       dtype=float).tobytes())
         else:
             source = ("arx", pos, id(ctrl))
@@ -345,6 +345,7 @@ class _FreeRunCache:
 
 
 _FREE_RUNS = _FreeRunCache()
+_CASCADE_FIELDS = tuple(f.name for f in dataclasses.fields(CascadeController))
 
 
 def simulate_position(model: GreyBox, prep: Prepared, w: np.ndarray | None = None,
@@ -562,6 +563,19 @@ class PositionFit:
             r = np.where(bad, _DIVERGED, r)
         return r
 
+    def _resids(self, ys: np.ndarray, loads: np.ndarray | None) -> np.ndarray:
+        """:meth:`_resid` of every row of ``ys`` (and ``loads``) at once, the same numbers."""
+        # compress keeps the rows C-contiguous (a boolean index on axis 1 would not), as the
+        # per-row arrays were: the Jacobian's layout, and so its BLAS rounding, stays
+        r = (self.prep.x[None, :] - ys).compress(self.mask, axis=1) / self.scale
+        if loads is not None and self.prep.x_load is not None:
+            r = np.concatenate([r, (self.prep.x_load[None, :] - loads).compress(self.mask, axis=1)
+                                / self.scale], axis=1)
+        bad = ~np.isfinite(r)
+        if bad.any():
+            r = np.where(bad, _DIVERGED, r)
+        return r
+
     def _simulate(self, models: list[GreyBox]) -> tuple[np.ndarray, np.ndarray | None]:
         """Logged positions of ``models`` and, with a load encoder, their load positions."""
         other = None
@@ -610,8 +624,7 @@ class PositionFit:
             else:
                 last.setdefault("batch", ys)
                 last["batch"], last["thetas"] = ys, thetas.copy()
-            return np.array([self._resid(y, None if loads is None else loads[i])
-                             for i, y in enumerate(ys)])
+            return self._resids(ys, loads)
 
         sol = bounded_least_squares(residuals, theta0, lo, hi, steps, max_iter=max_iter)
         fitted = _models_at(model, self.params, sol.x[None, :])[0]

@@ -220,6 +220,13 @@ def _init_effect(model: GreyBox, name: str, prep: Prepared, b: Bounds) -> GreyBo
     return model.copy(plant=p, effects=model.effects + (name,))
 
 
+def _free_positions(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`simulate_models` for the effects' starts and evidence, which read the positions
+    only (the effort comes back NaN where a kept run is handed back without it)."""
+    return simulate_models(models, prep, w, effort=False)
+
+
 def _position_sse(y: np.ndarray, prep: Prepared, mask: np.ndarray) -> float:
     r = (prep.x - y)[mask]
     return sumsq(r) if np.all(np.isfinite(r)) else float("inf")
@@ -308,7 +315,7 @@ def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
     for k in (0, 1):
         train = prep.folds != k
         m = _init_effect(model, name, prep, b)
-        m = get_effect(name).output_start(m, prep, b, w, y, train, simulate_models)
+        m = get_effect(name).output_start(m, prep, b, w, y, train, _free_positions)
         res = _output_fit(m, prep, b, w, train)
         fits.append(res.model)
         base_sse += _position_sse(y, prep, ~train)
@@ -625,7 +632,7 @@ def _start_output(model: GreyBox, name: str, prep: Prepared, b: Bounds, w: np.nd
                   y: np.ndarray) -> GreyBox:
     m = _init_effect(model, name, prep, b)
     allm = np.ones(prep.n, dtype=bool)
-    return get_effect(name).output_start(m, prep, b, w, y, allm, simulate_models)
+    return get_effect(name).output_start(m, prep, b, w, y, allm, _free_positions)
 
 
 def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
@@ -680,7 +687,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
             at = par.hi if side == "upper" else par.lo
             return (f"{name}: its parameter {CL.PLANT_NAMES[i]} = {v:.4g} ended on its {side} "
                     f"bound {at:.4g}: the optimum lies outside the physical range")
-    return effect.evidence(model, prep, w, simulate_models)
+    return effect.evidence(model, prep, w, _free_positions)
 
 
 def _pick(scores: list[CandidateScore], settings: DiagnoseSettings) -> CandidateScore | None:
@@ -798,7 +805,7 @@ def _eval_params(model: GreyBox, b: Bounds) -> list:
 def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray,
                   mask: np.ndarray) -> GreyBox:
     m = _init_effect(model, name, prep, b)
-    return get_effect(name).output_start(m, prep, b, None, y, mask, simulate_models)
+    return get_effect(name).output_start(m, prep, b, None, y, mask, _free_positions)
 
 
 _Variant = tuple[float, _Probe, np.ndarray]
