@@ -237,6 +237,38 @@ def _simulate_rows(models: Sequence[GreyBox], parts: Sequence[tuple],
     return y, u, status, other
 
 
+class _Lru:
+    """Entries ``(bytes, ...)`` by key, the least recently used dropped beyond ``budget``
+    bytes (no lock: :class:`_FreeRunCache` holds one)."""
+
+    def __init__(self, budget: int) -> None:
+        self.budget = budget
+        self.entries: OrderedDict[tuple, tuple] = OrderedDict()
+        self.bytes = 0
+
+    def get(self, key: tuple) -> tuple | None:
+        entry = self.entries.get(key)
+        if entry is not None:
+            self.entries.move_to_end(key)
+        return entry
+
+    def put(self, key: tuple, entry: tuple) -> None:
+        old = self.entries.pop(key, None)
+        if old is not None:
+            self.bytes -= old[0]
+        if entry[0] > self.budget:
+            return
+        self.entries[key] = entry
+        self.bytes += entry[0]
+        while self.bytes > self.budget:
+            self.bytes -= self.entries.popitem(last=False)[1][0]
+
+    def drop(self, first: int) -> None:
+        """Drop the entries whose key starts with ``first``."""
+        for key in [key for key in self.entries if key[0] == first]:
+            self.bytes -= self.entries.pop(key)[0]
+
+
 class _FreeRunCache:
     """The laws and noise-free free runs already computed on each set of loop inputs.
 
@@ -247,18 +279,19 @@ class _FreeRunCache:
     is kept by those (the row's bytes, the law's exact parameters) and handed back as it was
     computed. Least recently used entries go first once ``budget`` bytes are held; the entries
     of a set of inputs go with it. Only the arrays are kept, never handed out: callers get
-    copies.
+    copies. The laws (a Jacobian's rows of the loop's gains are a new law each, cheap to
+    convert again) are kept apart, within ``law_budget``, so that they do not push runs out.
 
     Parameters
     ----------
     budget : int
-        Bytes of arrays held at most (laws' reference parts and runs' outputs together).
+        Bytes of runs' outputs held at most.
+    law_budget : int
+        Bytes of laws' arrays held at most.
     """
 
-    def __init__(self, budget: int = 256 * 2**20) -> None:
-        self.budget = budget
-        self._entries: OrderedDict[tuple, tuple] = OrderedDict()
-        self._bytes = 0
+    def __init__(self, budget: int = 256 * 2**20, law_budget: int = 32 * 2**20) -> None:
+        self._stores = {"run": _Lru(budget), "law": _Lru(law_budget)}
         self._lock = threading.Lock()
         self._inputs: set[int] = set()
 
@@ -274,27 +307,16 @@ class _FreeRunCache:
     def _drop(self, k: int) -> None:
         with self._lock:
             self._inputs.discard(k)
-            for key in [key for key in self._entries if key[0] == k]:
-                self._bytes -= self._entries.pop(key)[0]
+            for store in self._stores.values():
+                store.drop(k)
 
     def _get(self, key: tuple) -> tuple | None:
         with self._lock:
-            entry = self._entries.get(key)
-            if entry is not None:
-                self._entries.move_to_end(key)
-            return entry
+            return self._stores[key[1]].get(key)
 
     def _put(self, key: tuple, entry: tuple) -> None:
         with self._lock:
-            old = self._entries.pop(key, None)
-            if old is not None:
-                self._bytes -= old[0]
-            if entry[0] > self.budget:
-                return
-            self._entries[key] = entry
-            self._bytes += entry[0]
-            while self._bytes > self.budget:
-                self._bytes -= self._entries.popitem(last=False)[1][0]
+            self._stores[key[1]].put(key, entry)
 
     def law(self, inp: LoopInputs, ctrl: CascadeController | ArxController, pos: bool
             ) -> tuple[tuple, tuple, PositionalLaw | None]:
