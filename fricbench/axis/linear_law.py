@@ -132,6 +132,18 @@ def _run_batch(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np
                              U[i], Y2[i], POS[i], A2[i], C2[i], R2[i], G0[i], I0[i])
 
 
+@numba.njit(cache=True)
+def _run_rows(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np.ndarray,
+              t: np.ndarray, x0: float, v0: float, U0: np.ndarray, y_init: np.ndarray,
+              noise: np.ndarray, Y: np.ndarray, U: np.ndarray, Y2: np.ndarray,
+              status: np.ndarray, POS: np.ndarray, A2: np.ndarray, C2: np.ndarray,
+              R2: np.ndarray, G0: np.ndarray, I0: np.ndarray) -> None:
+    """:func:`_run_batch` on the calling thread (no parallel region)."""
+    for i in range(P.shape[0]):
+        status[i] = _run_one(P[i], A[i], C[i], R[i], w, t, x0, v0, U0[i], y_init, noise, Y[i],
+                             U[i], Y2[i], POS[i], A2[i], C2[i], R2[i], G0[i], I0[i])
+
+
 def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray,
                    t: np.ndarray, ts: float, *, n_sub: int, x0: float, v0: float,
                    u_init: np.ndarray, y_init: np.ndarray, w: np.ndarray | None = None,
@@ -237,9 +249,12 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
             raise ValueError(f"a2, c2, r2, g_init: shapes {A2.shape}, {C2.shape}, {R2.shape}, "
                              f"{G0.shape} do not match {n_rows} rows of {n} samples with "
                              f"nc = {C.shape[1]}")
-    _run_batch(P, A, C, R, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
-               np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status, pos, A2, C2,
-               R2, G0, I0)
+    # one row runs on this thread: a parallel region for it only waits for the idle workers
+    # (on a loaded machine 11 ms against 5-9 ms for a 40,000-sample run); the row's code is
+    # the same _run_one either way
+    run = _run_rows if n_rows == 1 else _run_batch
+    run(P, A, C, R, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
+        np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status, pos, A2, C2, R2, G0, I0)
     return Y, U, status
 
 
