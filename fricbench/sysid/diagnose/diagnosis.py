@@ -646,24 +646,51 @@ def _loop_choice(new: _ModeFit, old: _ModeFit, extra_params: int, what: str,
         out.update(accepted=False, why="its free run of the training run diverges")
         log(f"  {what}: diverges, rejected")
         return out
-    k_new = len(position_params(new.search.final.model, new.bounds, controller=True))
-    k_new += extra_params
-    k_old = len(position_params(old.search.final.model, old.bounds, controller=True))
+    out.update(_judged(new, new.sse, old, old.sse, old.prep.x - old.train.y_after,
+                       extra_params, settings))
     n = int(old.prep.n)
-    n_eff = effective_samples(old.prep.x - old.train.y_after, settings.max_lag_share)
-    change = criterion_change(new.sse, old.sse, k_new, k_old, n_eff, settings.penalty)
+    log(f"  {what}: position rms {math.sqrt(new.sse / n):.4g} against "
+        f"{math.sqrt(old.sse / n):.4g} m, criterion "
+        f"{cast(float, out.get('criterion_change', math.inf)):+.3g}: "
+        f"{'kept' if out['accepted'] else 'rejected'}")
+    return out
+
+
+def _n_params(fit: _ModeFit) -> int:
+    """Free parameters of a diagnosis' final model on the position: its loop's gains when
+    they were fitted to the position (a cascade or PID), its plant and its effects; a law
+    identified from the effort was fitted to other data and is not counted."""
+    assert fit.bounds is not None
+    return len(position_params(fit.search.final.model, fit.bounds, controller=True))
+
+
+def _judged(new: _ModeFit, sse_new: float, old: _ModeFit, sse_old: float,
+            residual_old: np.ndarray, extra_params: int, settings: DiagnoseSettings
+            ) -> dict[str, object]:
+    """The criterion's decision between two diagnoses of one run, JSON-ready.
+
+    ``J = n_eff ln(SSE / n) + penalty k`` on their free-run position errors ``sse_new`` and
+    ``sse_old`` of the whole run, ``k`` from :func:`_n_params` (``extra_params`` more for the
+    new one), ``n_eff`` that of ``residual_old``. Keys: ``accepted``, ``why``, ``n_params``,
+    ``n_params_other``, ``n_eff``, and the finite ones of ``position_rms_m``,
+    ``position_rms_other_m`` and ``criterion_change``.
+    """
+    k_new = _n_params(new) + extra_params
+    k_old = _n_params(old)
+    n = int(old.prep.n)
+    n_eff = effective_samples(residual_old, settings.max_lag_share)
+    change = criterion_change(sse_new, sse_old, k_new, k_old, n_eff, settings.penalty)
     accepted = bool(change < 0.0)
-    out.update(n_params=k_new, n_params_other=k_old, n_eff=n_eff, accepted=accepted,
-               why="lowers the criterion" if accepted else "does not lower the criterion")
+    out: dict[str, object] = {
+        "accepted": accepted,
+        "why": "lowers the criterion" if accepted else "does not lower the criterion",
+        "n_params": k_new, "n_params_other": k_old, "n_eff": n_eff}
     # finite numbers only (the other structure's run may have diverged)
-    for key, sse in (("position_rms_m", new.sse), ("position_rms_other_m", old.sse)):
+    for key, sse in (("position_rms_m", sse_new), ("position_rms_other_m", sse_old)):
         if math.isfinite(sse):
             out[key] = math.sqrt(sse / n)
     if math.isfinite(change):
         out["criterion_change"] = change
-    log(f"  {what}: position rms {math.sqrt(new.sse / n):.4g} against "
-        f"{math.sqrt(old.sse / n):.4g} m, criterion {change:+.3g}: "
-        f"{'kept' if accepted else 'rejected'}")
     return out
 
 
@@ -742,24 +769,27 @@ def _search_position(base: _LoopBase, run: RunData, settings: DiagnoseSettings,
 def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: float,
                settings: DiagnoseSettings, log: Callable[[str], None],
                t0: float, idim: InverseDynamics | None = None) -> _ModeFit:
-    """The effort's diagnosis, or the position's when it predicts the position clearly better.
+    """The effort's diagnosis, or the position's when the criterion prefers it.
 
     A law identified from a logged effort reproduces the drive's loop only when the log holds
     what the controller read and computed, at the loop's rate: an effort logged slower than the
     loop runs, a position fed back from another sensor (a semi-closed loop) or a delay before
     the force break that, and the law's loop then predicts the position worse than a loop
     fitted to the position with friction. The position decides (the issue's fallback to the
-    position-only search), by ``settings.mode_margin``, and the report says why.
+    position-only search) by the one criterion (:func:`_judged`: the position's loop counts
+    its fitted gains, the effort's law, fitted to the effort, counts none), and the report
+    says why.
     """
     n = effort.prep.x.shape[0]
     sse_e = effort.sse
+    r_e = effort.prep.x - effort.train.y_after
     if effort.train.used_injected:
         # compared from the reference alone, as the position's loop runs: the effort the law
         # leaves, fed back as an input, carries the drive's reaction to the very effects the
         # position's diagnosis looks for (a drift, a lag), and would win the comparison for it
         y_e, _ = simulate_position(effort.search.final.model, effort.prep)
-        e = effort.prep.x - y_e
-        sse_e = float(np.sum(e**2)) if np.all(np.isfinite(e)) else math.inf
+        r_e = effort.prep.x - y_e
+        sse_e = float(np.sum(r_e**2)) if np.all(np.isfinite(r_e)) else math.inf
     rms_e = math.sqrt(sse_e / n)
     if rms_e <= settings.floor_factor * effort.search.floor:
         return effort  # at the noise floor: nothing a loop fitted to the position could add
@@ -777,15 +807,26 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
     else:
         eff["diverged"] = True
     comparison: dict[str, object] = {
-        "rule": f"the position alone when its squared error < {settings.mode_margin:g} x "
-                "the effort's",
+        "rule": "the position alone when it lowers the criterion J = n_eff ln(SSE / n) + "
+                f"{settings.penalty:g} k on the free-run position error (k: the parameters "
+                "each diagnosis fitted to the position)",
         "effort": eff}
-    if not pos.finite:
+    if not pos.finite or pos.bounds is None or effort.bounds is None:
         comparison["position"] = {"effects": _effects(pos), "diverged": True}
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     comparison["position"] = {"effects": _effects(pos), "position_rms_m": rms_p}
-    if not pos.sse < settings.mode_margin * sse_e:
+    # a free run of the effort's law that diverged leaves no residual to count samples on:
+    # the position's own stands in (its criterion change is then -inf whatever n_eff)
+    judged = _judged(pos, pos.sse, effort, sse_e,
+                     r_e if math.isfinite(sse_e) else pos.prep.x - pos.train.y_after, 0,
+                     settings)
+    comparison["criterion"] = {k: v for k, v in judged.items()
+                               if k in ("n_params", "n_params_other", "n_eff",
+                                        "criterion_change")}
+    log(f"  the position's loop against the effort's: criterion "
+        f"{cast(float, judged.get('criterion_change', -math.inf)):+.3g}")
+    if not judged["accepted"]:
         effort.comparison = dict(comparison, chosen="effort")
         return effort
     pos.comparison = dict(comparison, chosen="position")

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 55 today; the one-method issue's target is at most 15.**
+**Tuned values: 54 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -217,14 +217,9 @@ class DiagnoseSettings:
         Loop structure. A PID loop model replaces the cascade only when its fitted squared
         error is below this fraction of the cascade's (it has one more parameter). Tuned: set
         by hand on the second simulator (commit de3b631).
-    mode_margin : float
-        Loop structure. A run with an effort is diagnosed on its position alone when the final
-        model of that diagnosis leaves less than this share of the squared free-run position
-        error the effort's diagnosis leaves ("below half"). Tuned on the second simulator's
-        tuning seeds (commit 58f6e3b).
     law_exact_pct : float
         Loop structure. A law identified from the effort within this relative error, %, is the
-        controller's own and is kept without the comparison of ``mode_margin`` (drives logged
+        controller's own and is kept without the comparison of the modes (drives logged
         at their rate on the encoder they read leave 0.1 %; semi-closed loops, slower logs and
         delays 0.4-20 %). A log slower than ``loop_ts`` never counts as exact. Tuned on the
         second simulator's tuning seeds (commit 58f6e3b).
@@ -476,7 +471,6 @@ class DiagnoseSettings:
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------
     loop_ts: float = _setting(1e-3, tuned=False, check=_POSITIVE)
     pid_margin: float = _setting(0.8, tuned=True, check=_POSITIVE)
-    mode_margin: float = _setting(0.5, tuned=True, check=_NONNEG)
     law_exact_pct: float = _setting(0.5, tuned=True, check=_NONNEG)
     law_max_relerr_pct: float = _setting(25.0, tuned=True, check=_POSITIVE)
     law_prefilters: tuple[float | None, ...] = _setting((None, 1 / 4, 1 / 8, 1 / 16, 1 / 32),
