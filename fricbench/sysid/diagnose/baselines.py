@@ -16,6 +16,7 @@ from fricbench.sysid.diagnose.controllers import (
     CascadeController,
     fit_arx_controller,
 )
+from fricbench.sysid.diagnose.criterion import criterion_change, effective_samples
 from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.equation_error import delay_steps, loop_by_equation_error
 from fricbench.sysid.diagnose.models import (
@@ -337,7 +338,7 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     if len(laws) == 1:
         return laws[0]
     idim = idim if idim is not None else InverseDynamics(prep, prep.u)
-    sse, _ = _law_errors(prep, laws, idim)
+    sse, _, _ = _law_errors(prep, laws, idim)
     if not np.any(np.isfinite(sse)):
         return laws[0]
     return laws[int(np.argmin(sse))]
@@ -383,10 +384,11 @@ def law_candidates(prep: Prepared) -> list[ArxController]:
 
 
 def _law_errors(prep: Prepared, laws: Sequence[ArxController], idim: InverseDynamics
-                ) -> tuple[np.ndarray, np.ndarray]:
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Squared free-run position errors of each law closed around ``idim``'s plant (mass,
     damping and a Coulomb force fitted to the effort, under its delay, clipping where the
-    effort clips): over the whole run, and after its first tenth (inf for a run that fails)."""
+    effort clips): over the whole run, and after its first tenth (inf for a run that fails);
+    and each law's residual after the first tenth (rows of NaN where it failed)."""
     p = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
     p[CL.I_DELAY] = idim.delay
     if prep.saturation is not None:
@@ -397,11 +399,13 @@ def _law_errors(prep: Prepared, laws: Sequence[ArxController], idim: InverseDyna
     # one-sample shift of the effort can absorb that transient (see fit_law_and_delay)
     k0 = prep.x.shape[0] // 10
     whole, late = np.full(len(laws), np.inf), np.full(len(laws), np.inf)
+    resid = np.full((len(laws), prep.x.shape[0] - k0), np.nan)
     for i, (y, s) in enumerate(zip(ys, status, strict=True)):
         if s == 0 and np.all(np.isfinite(y)):
             whole[i] = float(np.sum((prep.x - y) ** 2))
-            late[i] = float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
-    return whole, late
+            resid[i] = prep.x[k0:] - y[k0:]
+            late[i] = float(np.sum(resid[i] ** 2))
+    return whole, late, resid
 
 
 def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
@@ -477,16 +481,26 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     cands = [idim] + [InverseDynamics(prep, prep.u, idim.label, delay=d)
                       for d in delays if d > 0]
     best_law, late = [], []
+    residual0: np.ndarray | None = None
     for cand in cands:
-        whole, after = _law_errors(prep, laws, cand)
+        whole, after, resid = _law_errors(prep, laws, cand)
         i = int(np.argmin(whole)) if np.any(np.isfinite(whole)) else 0
         best_law.append(laws[i])
         # judged after the first tenth of the run: a PD loop started moving, no delay in it,
         # left 0.71 x the error of none over the whole run with a one-sample shift, 1.3 x
         # after its first tenth; a drive's delay acts over the whole run
         late.append(after[i])
+        if residual0 is None:
+            residual0 = resid[i]
     best = int(np.argmin(late))
-    if best > 0 and np.isfinite(late[best]) and late[best] < defaults().delay_gain * late[0]:
+    if best == 0 or not np.isfinite(late[best]):
+        return best_law[0], idim
+    # the one criterion, the delay one parameter more (its plant is refitted to the shifted
+    # effort, the same count), n_eff from the loop without a delay
+    s = defaults()
+    n_eff = (effective_samples(residual0, s.max_lag_share)
+             if residual0 is not None and np.all(np.isfinite(residual0)) else 1.0)
+    if criterion_change(late[best], late[0], 1, 0, n_eff, s.penalty) < 0.0:
         return best_law[best], cands[best]
     return best_law[0], idim
 
@@ -598,11 +612,31 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
                 best_pid = res
         elif best is None or res.cost < best.cost:
             best = res
-    # a PID position loop (integral on the position error, filtered derivative) when it fits
-    # clearly better: a cascade reaches only the PIDs with real P-PI gains and no filter
-    if best_pid is not None and (best is None or best_pid.cost < defaults().pid_margin * best.cost):
+    # a PID position loop (integral on the position error, filtered derivative) when the
+    # criterion prefers it: a cascade reaches only the PIDs with real P-PI gains and no filter
+    if best_pid is not None and (best is None or _pid_wins(best_pid, best, prep, bounds)):
         best = best_pid
     return best
+
+
+def _pid_wins(pid: PositionFitResult, cascade: PositionFitResult, prep: Prepared,
+              bounds: Bounds) -> bool:
+    """Whether the PID loop's fit lowers the one criterion against the cascade's.
+
+    ``J = n_eff ln(SSE / n) + penalty k`` on the free-run position error of the training run
+    (the Akaike form of the loop structures, ``docs/diagnosis_method.md``), ``k`` the
+    parameters each fit moved (the PID's derivative filter is one more), ``n_eff`` that of the
+    cascade's residual. Both fits minimise the same scaled residual, so their costs' ratio is
+    that of their squared errors.
+    """
+    s = defaults()
+    r = prep.x - cascade.y
+    if not np.all(np.isfinite(r)):
+        return True
+    n_eff = effective_samples(r, s.max_lag_share)
+    k_pid = len(position_params(pid.model, bounds, controller=True))
+    k_cascade = len(position_params(cascade.model, bounds, controller=True))
+    return criterion_change(pid.cost, cascade.cost, k_pid, k_cascade, n_eff, s.penalty) < 0.0
 
 
 def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
