@@ -461,13 +461,13 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     each delay the plant is refitted to the effort shifted by it, and each law of
     :func:`law_candidates` is closed around it with a Coulomb force (:func:`fit_law`'s choice,
     under that delay). The delay whose best law leaves the least position error is kept when it
-    is clearly better (``settings.delay_gain``) than none. On the second simulator's thermal/21 (a
-    cascade with a 3-sample delay, its current logged) the loop without a delay left 14.6 um,
-    with it 7.3 um. The two are chosen together because each bends to the other: there, the
-    law chosen without a delay (a cascade's clamp of the wrong integral rate) took 2 samples
-    of delay and left 6.3 um, where the true delay with the law it favours leaves 2.7. A
-    handful of choices, each refitted to the effort: nothing else the position shows can hide
-    in them.
+    lowers the one criterion against none, the delay one parameter more. On the second
+    simulator's thermal/21 (a cascade with a 3-sample delay, its current logged) the loop
+    without a delay left 14.6 um, with it 7.3 um. The two are chosen together because each bends
+    to the other: there, the law chosen without a delay (a cascade's clamp of the wrong integral
+    rate) took 2 samples of delay and left 6.3 um, where the true delay with the law it favours
+    leaves 2.7. A handful of choices, each refitted to the effort: nothing else the position
+    shows can hide in them.
 
     Returns
     -------
@@ -544,7 +544,7 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     ``settings.friction_starts``).
 
     With ``pid`` (the default) the best standard PID position loop is refined too and
-    replaces the cascade when it fits clearly better (``settings.pid_margin``): a drive whose PID
+    replaces the cascade when the criterion prefers it (:func:`_pid_wins`): a drive whose PID
     has complex P-PI roots or a filtered derivative is no cascade. So are the loops the
     equation error finds with a Coulomb force (:func:`~.equation_error.loop_by_equation_error`),
     one per command delay of :func:`~.equation_error.delay_steps` (up to 3 ms), each refined with
