@@ -461,7 +461,7 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     each delay the plant is refitted to the effort shifted by it, and each law of
     :func:`law_candidates` is closed around it with a Coulomb force (:func:`fit_law`'s choice,
     under that delay). The delay whose best law leaves the least position error is kept when it
-    lowers the one criterion against none, the delay one parameter more. On the second
+    is clearly better (``settings.delay_gain``) than none. On the second
     simulator's thermal/21 (a cascade with a 3-sample delay, its current logged) the loop
     without a delay left 14.6 um, with it 7.3 um. The two are chosen together because each bends
     to the other: there, the law chosen without a delay (a cascade's clamp of the wrong integral
@@ -481,26 +481,20 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     cands = [idim] + [InverseDynamics(prep, prep.u, idim.label, delay=d)
                       for d in delays if d > 0]
     best_law, late = [], []
-    residual0: np.ndarray | None = None
     for cand in cands:
-        whole, after, resid = _law_errors(prep, laws, cand)
+        whole, after, _ = _law_errors(prep, laws, cand)
         i = int(np.argmin(whole)) if np.any(np.isfinite(whole)) else 0
         best_law.append(laws[i])
         # judged after the first tenth of the run: a PD loop started moving, no delay in it,
         # left 0.71 x the error of none over the whole run with a one-sample shift, 1.3 x
         # after its first tenth; a drive's delay acts over the whole run
         late.append(after[i])
-        if residual0 is None:
-            residual0 = resid[i]
     best = int(np.argmin(late))
-    if best == 0 or not np.isfinite(late[best]):
-        return best_law[0], idim
-    # the one criterion, the delay one parameter more (its plant is refitted to the shifted
-    # effort, the same count), n_eff from the loop without a delay
-    s = defaults()
-    n_eff = (effective_samples(residual0, s.max_lag_share)
-             if residual0 is not None and np.all(np.isfinite(residual0)) else 1.0)
-    if criterion_change(late[best], late[0], 1, 0, n_eff, s.penalty) < 0.0:
+    # not by the criterion: with the delay counted as one parameter more it gave delays to
+    # runs that had none (a twin's mass 12 % off on the tests' paper axis); its late error
+    # after the shift is no held-out error, and the plant refitted to the shifted effort
+    # bends to it
+    if best > 0 and np.isfinite(late[best]) and late[best] < defaults().delay_gain * late[0]:
         return best_law[best], cands[best]
     return best_law[0], idim
 
