@@ -338,7 +338,7 @@ def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxControlle
     if len(laws) == 1:
         return laws[0]
     idim = idim if idim is not None else InverseDynamics(prep, prep.u)
-    sse, _, _ = _law_errors(prep, laws, idim)
+    sse, _ = _law_errors(prep, laws, idim)
     if not np.any(np.isfinite(sse)):
         return laws[0]
     return laws[int(np.argmin(sse))]
@@ -384,11 +384,10 @@ def law_candidates(prep: Prepared) -> list[ArxController]:
 
 
 def _law_errors(prep: Prepared, laws: Sequence[ArxController], idim: InverseDynamics
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Squared free-run position errors of each law closed around ``idim``'s plant (mass,
     damping and a Coulomb force fitted to the effort, under its delay, clipping where the
-    effort clips): over the whole run, and after its first tenth (inf for a run that fails);
-    and each law's residual after the first tenth (rows of NaN where it failed)."""
+    effort clips): over the whole run, and after its first tenth (inf for a run that fails)."""
     p = idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))
     p[CL.I_DELAY] = idim.delay
     if prep.saturation is not None:
@@ -399,13 +398,11 @@ def _law_errors(prep: Prepared, laws: Sequence[ArxController], idim: InverseDyna
     # one-sample shift of the effort can absorb that transient (see fit_law_and_delay)
     k0 = prep.x.shape[0] // 10
     whole, late = np.full(len(laws), np.inf), np.full(len(laws), np.inf)
-    resid = np.full((len(laws), prep.x.shape[0] - k0), np.nan)
     for i, (y, s) in enumerate(zip(ys, status, strict=True)):
         if s == 0 and np.all(np.isfinite(y)):
             whole[i] = float(np.sum((prep.x - y) ** 2))
-            resid[i] = prep.x[k0:] - y[k0:]
-            late[i] = float(np.sum(resid[i] ** 2))
-    return whole, late, resid
+            late[i] = float(np.sum((prep.x[k0:] - y[k0:]) ** 2))
+    return whole, late
 
 
 def fit_law_like(prep: Prepared, like: ArxController) -> ArxController:
@@ -482,7 +479,7 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
                       for d in delays if d > 0]
     best_law, late = [], []
     for cand in cands:
-        whole, after, _ = _law_errors(prep, laws, cand)
+        whole, after = _law_errors(prep, laws, cand)
         i = int(np.argmin(whole)) if np.any(np.isfinite(whole)) else 0
         best_law.append(laws[i])
         # judged after the first tenth of the run: a PD loop started moving, no delay in it,
