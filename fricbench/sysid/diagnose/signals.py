@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, signal
 
-from fricbench.sysid.diagnose.settings import defaults
+from fricbench.sysid.diagnose.settings import DiagnoseSettings, defaults
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
+           "SensorLine", "sensor_lines", "rest_segments", "mains_visible", "remove_lines",
            "block_folds", "fold_blocks", "period_candidates",
            "choose_filter", "Saturation", "detect_saturation"]
 
@@ -72,7 +73,7 @@ def decimate_columns(cols: np.ndarray, factor: int) -> np.ndarray:
 
 
 class NoiseFloor:
-    """Measurement noise and quantisation of a position signal.
+    """Measurement noise, quantisation and periodic disturbances of a position signal.
 
     Attributes
     ----------
@@ -80,25 +81,86 @@ class NoiseFloor:
         Standard deviation of the white part, m (from third differences).
     quantum : float
         Detected quantisation step, m (0 when the values are not on a grid).
+    lines : tuple of SensorLine
+        Periodic components of the measurement that are no motion (mains hum,
+        :func:`sensor_lines`); empty when none was found.
+    sensor_rms : float
+        The sensor's own floor: ``max(sigma, quantum / sqrt(12))``, m; never zero (see
+        :func:`noise_floor` for the fallbacks).
+    disturbance_rms : float
+        Rms of the lines, ``sqrt(sum(amplitude**2) / 2)``, m (0 without lines).
     rms : float
-        The floor a free-run prediction cannot beat: ``max(sigma, quantum / sqrt(12))``, m;
-        never zero (see :func:`noise_floor` for the fallbacks).
+        The floor a free-run prediction cannot beat: the sensor's floor and the lines' power
+        added, ``sqrt(sensor_rms**2 + disturbance_rms**2)``, m.
     source : str
         Where the floor comes from: ``"quantum"`` (detected), ``"stated quantum"``,
         ``"noise"`` (third differences), or a fallback (``"noise, non-robust"``,
         ``"resolution of the values"``).
     """
 
-    def __init__(self, sigma: float, quantum: float, source: str = "noise") -> None:
+    def __init__(self, sigma: float, quantum: float, source: str = "noise",
+                 lines: tuple[SensorLine, ...] = ()) -> None:
         self.sigma = float(sigma)
         self.quantum = float(quantum)
         self.source = source
-        self.rms = float(max(self.sigma, self.quantum / np.sqrt(12.0)))
+        self.lines = tuple(lines)
+        self.sensor_rms = float(max(self.sigma, self.quantum / np.sqrt(12.0)))
+        self.disturbance_rms = float(np.sqrt(sum(ln.variance for ln in self.lines)))
+        self.rms = float(np.hypot(self.sensor_rms, self.disturbance_rms))
+
+    def with_lines(self, lines: tuple[SensorLine, ...] | list[SensorLine]) -> NoiseFloor:
+        """The same sensor floor with ``lines`` as its periodic disturbances."""
+        return NoiseFloor(self.sigma, self.quantum, self.source, tuple(lines))
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-ready form."""
-        return {"sigma_m": self.sigma, "quantum_m": self.quantum, "rms_m": self.rms,
-                "source": self.source}
+        """JSON-ready form (``sensor_disturbance_rms_m`` only when lines were found)."""
+        out: dict[str, object] = {"sigma_m": self.sigma, "quantum_m": self.quantum,
+                                  "rms_m": self.rms, "source": self.source}
+        if self.lines:
+            out["sensor_rms_m"] = self.sensor_rms
+            out["sensor_disturbance_rms_m"] = self.disturbance_rms
+        return out
+
+
+@dataclass(frozen=True)
+class SensorLine:
+    """A periodic component of the measurement that is no motion of the axis (mains hum).
+
+    Attributes
+    ----------
+    frequency_hz : float
+        Its frequency, Hz (refined by least squares).
+    amplitude : float
+        Amplitude of the least-squares sinusoid at that frequency, in the signal's SI unit.
+    harmonic : int
+        Which harmonic of ``mains_hz`` it is (1: the fundamental).
+    mains_hz : float
+        The mains fundamental it belongs to, Hz.
+    ratio : float
+        Its periodogram ordinate over the median of its local band (the detection's statistic).
+    where : str
+        Where it was found: ``"rests"``, ``"residual"`` or ``"rests and residual"``.
+    """
+
+    frequency_hz: float
+    amplitude: float
+    harmonic: int
+    mains_hz: float
+    ratio: float
+    where: str
+
+    @property
+    def variance(self) -> float:
+        """Its power, ``amplitude**2 / 2``."""
+        return 0.5 * self.amplitude**2
+
+    def to_dict(self, to_si: float = 1.0, unit: str = "m") -> dict[str, object]:
+        """JSON-ready form: the amplitude in SI (``amplitude_m``) and in the log's own unit
+        ``unit`` (``to_si`` SI units each)."""
+        return {"frequency_hz": self.frequency_hz, "amplitude": self.amplitude / to_si,
+                "unit": unit, "amplitude_m": self.amplitude, "harmonic": self.harmonic,
+                "mains_hz": self.mains_hz, "where": self.where,
+                "ratio_to_local_level": self.ratio}
 
 
 def _quantum(x: np.ndarray) -> float:
@@ -213,13 +275,230 @@ def noise_floor(x: np.ndarray, x_ref: np.ndarray, quantum: float | None = None) 
     return NoiseFloor(sigma, q, source)
 
 
+def rest_segments(x_ref: np.ndarray, ts: float,
+                  settings: DiagnoseSettings | None = None) -> list[tuple[int, int]]:
+    """Sample ranges ``(start, stop)`` where the reference is still, each after its transient.
+
+    A rest is a run of samples whose reference does not change (within ``1e-12`` of its
+    magnitude: an exported reference repeats its value). Its first ``settings.rest_settle_share``
+    is the axis settling and is left out; what remains must hold
+    ``settings.sensor_line_min_periods`` periods of the lowest mains fundamental.
+    """
+    st = defaults() if settings is None else settings
+    xr = np.asarray(x_ref, dtype=float)
+    if xr.size < 4:
+        return []
+    scale = max(float(np.max(np.abs(xr))), 1e-300)
+    still = np.abs(np.diff(xr)) <= 1e-12 * scale
+    at = np.zeros(xr.size, dtype=bool)
+    at[1:] |= still
+    at[:-1] |= still
+    edges = np.flatnonzero(np.diff(np.r_[0, at.astype(np.int8), 0]))
+    min_len = st.sensor_line_min_periods / (min(st.mains_hz) * ts)
+    out = []
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        a = int(a + np.ceil(st.rest_settle_share * (b - a)))
+        if b - a >= max(min_len, 8):
+            out.append((a, int(b)))
+    return out
+
+
+def mains_visible(ts: float, settings: DiagnoseSettings | None = None) -> bool:
+    """Whether a log sampled every ``ts`` s can show the lowest mains fundamental below its
+    Nyquist frequency (with the local band the test compares it with)."""
+    st = defaults() if settings is None else settings
+    f0 = min(st.mains_hz)
+    return f0 * (1.0 + st.mains_tolerance) + 0.5 * f0 < 0.5 / ts
+
+
+class _Segments:
+    """Sample ranges of a signal, each with the orthonormal basis of a quadratic in time over
+    it (so that a segment's offset and settling can be removed from any column)."""
+
+    def __init__(self, segments: list[tuple[int, int]], n: int) -> None:
+        self.ranges = segments
+        self.n = n
+        self.bases = []
+        for a, b in segments:
+            u = np.linspace(-1.0, 1.0, b - a)
+            self.bases.append(np.linalg.qr(np.column_stack([np.ones_like(u), u, u * u]))[0])
+        self.used = np.zeros(n, dtype=bool)
+        for a, b in segments:
+            self.used[a:b] = True
+
+    def detrend(self, cols: np.ndarray) -> np.ndarray:
+        """``cols`` (K,) or (K, P) less each segment's quadratic, zero outside the segments."""
+        out = np.zeros((self.n,) + cols.shape[1:])
+        for (a, b), q in zip(self.ranges, self.bases, strict=True):
+            seg = cols[a:b]
+            out[a:b] = seg - q @ (q.T @ seg)
+        return out
+
+    def fit(self, d: np.ndarray, freqs: list[float], t: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+        """Least-squares sinusoids at ``freqs`` in the detrended signal ``d``, each segment's
+        quadratic fitted with them (the columns detrended the same way). Returns their
+        amplitudes and each one's fitted signal (a column per frequency, zero outside the
+        segments)."""
+        ph = 2.0 * np.pi * np.outer(t, np.asarray(freqs, dtype=float))
+        k = len(freqs)
+        cols = self.detrend(np.column_stack([np.sin(ph), np.cos(ph)]))
+        coef, *_ = np.linalg.lstsq(cols[self.used], d[self.used], rcond=None)
+        parts = cols[:, :k] * coef[:k] + cols[:, k:] * coef[k:]
+        return np.hypot(coef[:k], coef[k:]), parts
+
+
+def sensor_lines(s: np.ndarray, ts: float, segments: list[tuple[int, int]], where: str,
+                 settings: DiagnoseSettings | None = None,
+                 floor: float = 0.0) -> list[SensorLine]:
+    """Lines of the mains (50/60 Hz and harmonics) in the signal ``s`` over ``segments``.
+
+    ``s`` is a measurement with the motion left out: the position in the rests of the
+    reference (:func:`rest_segments`), or a free-run residual (one segment, the whole run).
+    Each segment loses a quadratic in time (its offset and settling); the segments keep their
+    place in time, so that a line keeps its phase across them (the mains' is continuous).
+
+    For every harmonic ``h f0`` of ``settings.mains_hz`` up to ``settings.mains_max_harmonic``
+    and below the Nyquist frequency (less half a fundamental, the local band's width):
+
+    1. the candidate is the highest ordinate of the zero-padded (4-fold) periodogram within
+       ``settings.mains_tolerance`` of ``h f0`` (plus a grid step), its frequency refined by a
+       parabola through the log ordinates around it;
+    2. every candidate's sinusoid is fitted (jointly, by least squares) and removed; the local
+       level of a candidate is the median ordinate of what remains over its band (half a
+       fundamental on either side, wider when the segments hold too few independent ordinates
+       in it: ``settings.sensor_line_band_bins``), so that neither a line nor its leakage
+       through the gaps between the rests raises it;
+    3. a candidate is a line when its ordinate, every other candidate removed, stands at least
+       ``settings.sensor_line_ratio`` times above its local level, and its amplitude reaches
+       the sensor's own floor ``floor``. A line below that floor adds less than half the
+       sensor's variance to it, carries at most a third of a residual that holds the
+       sensor's noise (so is never what a residual is named after), and on a digital encoder
+       is motion rather than the sensor's (EMPS's residual has a 100 Hz line of a quarter of
+       its encoder's step: a drive's ripple moves the axis; an encoder's count has no hum).
+
+    Each fundamental is searched on its own (its harmonics a fundamental apart can be fitted
+    together; 240 and 250 Hz may not); the lines' amplitudes are then fitted jointly by least
+    squares, and one grid feeds a site: only the fundamental whose lines carry the more power
+    is kept. A log whose Nyquist
+    frequency is at or below a harmonic cannot see it (a 100 Hz log cannot see 50 Hz: what
+    aliases there is not told from motion): see :func:`mains_visible`.
+
+    Parameters
+    ----------
+    s : ndarray, shape (K,)
+        The signal (SI unit).
+    ts : float
+        Sample time, s.
+    segments : list of (int, int)
+        Sample ranges searched.
+    where : str
+        What ``s`` is, recorded in each line (``"rests"``, ``"residual"``).
+    settings : DiagnoseSettings, optional
+    floor : float
+        The sensor's own floor (:attr:`NoiseFloor.sensor_rms`), SI: a line's amplitude must
+        reach it (0: any line that stands out counts).
+
+    Returns
+    -------
+    list of SensorLine
+        Sorted by frequency; empty when no line stands out, or the segments are too short.
+    """
+    st = defaults() if settings is None else settings
+    s = np.asarray(s, dtype=float)
+    n = s.size
+    segments = [(int(a), int(b)) for a, b in segments if b - a >= 8 and b <= n]
+    if not segments or not np.all(np.isfinite(s)):
+        return []
+    nyq = 0.5 / ts
+    t = np.arange(n) * ts
+    segs = _Segments(segments, n)
+    d = segs.detrend(s)
+    used = sum(b - a for a, b in segments)
+    scale = max(float(np.max(np.abs(s[segments[0][0]:segments[-1][1]]))), 1e-300)
+    # a still sensor (every segment constant up to rounding) has no spectrum to test
+    if not float(np.sqrt(np.sum(d * d) / used)) > 1e-12 * scale:
+        return []
+    span = segments[-1][1] - segments[0][0]
+    nfft = 1 << int(np.ceil(np.log2(4 * max(span, 16))))
+    lo = segments[0][0]
+    grid = np.fft.rfftfreq(nfft, ts)
+    step = float(grid[1])
+    power = np.abs(np.fft.rfft(d[lo:], nfft)) ** 2
+
+    def ordinate(sig: np.ndarray, f: float) -> float:
+        return float(np.abs(np.dot(sig, np.exp(-2j * np.pi * f * t))) ** 2)
+
+    best: list[SensorLine] = []
+    for f0 in st.mains_hz:
+        # each grid on its own: harmonics of one fundamental lie a fundamental apart, those
+        # of two (250 and 240 Hz) may be too close to fit together
+        cands: list[tuple[float, int]] = []  # (frequency, harmonic)
+        for h in range(1, st.mains_max_harmonic + 1):
+            fh = h * f0
+            half = st.mains_tolerance * fh + step
+            if fh + half + 0.5 * f0 >= nyq:
+                break
+            win = np.flatnonzero(np.abs(grid - fh) <= half)
+            if win.size == 0:
+                continue
+            k = int(win[np.argmax(power[win])])
+            f_best = float(grid[k])
+            if 0 < k < power.size - 1 and np.all(power[k - 1:k + 2] > 0.0):
+                # the peak between the grid's points: a parabola through the log ordinates
+                # (exact for a Gaussian-shaped peak, within a few % of a step otherwise)
+                y0, y1, y2 = np.log(power[k - 1:k + 2])
+                den = y0 - 2.0 * y1 + y2
+                if den < 0.0:
+                    f_best += step * float(np.clip(0.5 * (y0 - y2) / den, -0.5, 0.5))
+            cands.append((f_best, h))
+        if not cands:
+            continue
+        _, parts = segs.fit(d, [c[0] for c in cands], t)
+        clean = d - np.sum(parts, axis=1)
+        clean_power = np.abs(np.fft.rfft(clean[lo:], nfft)) ** 2
+        # the band holds at least settings.sensor_line_band_bins independent ordinates (1 / T
+        # apart, T the time the segments hold): a short log's band is wider than the fundamental
+        half_band = max(0.5 * f0, 0.5 * st.sensor_line_band_bins / (used * ts))
+        found: list[tuple[float, int, float]] = []
+        for i, (f, h) in enumerate(cands):
+            band = (np.abs(grid - h * f0) <= half_band) & (grid > 0.0) & (grid < nyq)
+            level = float(np.median(clean_power[band])) if np.any(band) else 0.0
+            # the candidate's ordinate with every other candidate removed: the leakage of a
+            # strong line through the gaps between the rests is no line of its own
+            ratio = ordinate(clean + parts[:, i], f) / level if level > 0.0 else 0.0
+            if ratio >= st.sensor_line_ratio:
+                found.append((f, h, ratio))
+        if not found:
+            continue
+        amps, _ = segs.fit(d, [f for f, *_ in found], t)
+        lines = [SensorLine(float(f), float(a), int(h), float(f0), float(r), where)
+                 for (f, h, r), a in zip(found, amps, strict=True) if a >= floor]
+        # one grid feeds a site: the fundamental whose lines carry the more power
+        if sum(ln.variance for ln in lines) > sum(ln.variance for ln in best):
+            best = lines
+    return sorted(best, key=lambda ln: ln.frequency_hz)
+
+
+def remove_lines(r: np.ndarray, ts: float, freqs: list[float]) -> np.ndarray:
+    """``r`` less its least-squares sinusoids at ``freqs`` (with a quadratic in time beside
+    them, which stays in)."""
+    r = np.asarray(r, dtype=float)
+    if not freqs or r.size < 8:
+        return r
+    segs = _Segments([(0, r.size)], r.size)
+    _, parts = segs.fit(segs.detrend(r), list(freqs), np.arange(r.size) * ts)
+    return r - np.sum(parts, axis=1)
+
+
 def choose_filter(x: np.ndarray, ts: float, noise: NoiseFloor) -> tuple[float, int, str]:
     """Derivative filter cut-off (Hz) and decimation chosen from the sensor and the motion.
 
     The IDIM-LS recipe of the EMPS reference (a cut-off at a tenth of the sampling rate,
     decimation by 10) assumes a fine sensor. A coarse one (a potentiometer on a 10-bit ADC, a
     low-count encoder) is differentiated twice into noise with that filter. The resolution
-    ``res = sqrt(12) * noise.rms`` (the quantum, or the white noise's equivalent) against the
+    ``res = sqrt(12) * noise.sensor_rms`` (the quantum, or the white noise's equivalent; a hum's
+    lines are no resolution) against the
     mean speed ``v`` of the measured motion (its path length through a play of one
     resolution, which ignores dithering by a step at rest, over the duration) gives the
     cut-off ``v / (settings.steps_per_filter_period * res)`` when that is lower than the
@@ -245,7 +524,7 @@ def choose_filter(x: np.ndarray, ts: float, noise: NoiseFloor) -> tuple[float, i
     fs = 1.0 / ts
     n = int(x.shape[0])
     fc_recipe, decim_recipe = 0.1 * fs, 10
-    res = float(np.sqrt(12.0) * noise.rms)
+    res = float(np.sqrt(12.0) * noise.sensor_rms)
     duration = n * ts
     if not (res > 0.0 and n > 10 and duration > 0.0):
         return fc_recipe, decim_recipe, "default"
