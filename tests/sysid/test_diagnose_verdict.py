@@ -53,3 +53,20 @@ def test_the_residual_is_described_by_its_dominant_structure() -> None:
     assert "oscillation near 37" in describe(ring, X, V_REF, TS)
     lag = -2e-3 * V_REF
     assert describe(lag, X, V_REF, TS).startswith("a lag behind the motion")
+
+
+def test_a_line_of_the_sensor_is_never_called_a_resonance() -> None:
+    # mains hum left in the residual: an oscillation near 50 Hz without the line given ...
+    rng = np.random.default_rng(3)
+    hum = 4e-6 * np.sin(2 * np.pi * 50.07 * T + 1.0) + 1e-6 * np.sin(2 * np.pi * 150.2 * T)
+    r = hum + 0.5e-6 * rng.standard_normal(T.size)
+    assert "resonance" in describe(r, X, V_REF, TS)
+    # ... and no resonance once it is known to be the sensor's: its sinusoids are removed and
+    # no peak near them is named
+    said = describe(r, X, V_REF, TS, lines=[50.07, 150.2])
+    assert "resonance" not in said and "50" not in said
+    # a resonance elsewhere is still one
+    ring = r + 3e-6 * np.sin(2 * np.pi * 37.0 * T)
+    assert "oscillation near 37" in describe(ring, X, V_REF, TS, lines=[50.07, 150.2])
+    v = judge([], 5e-6, 1e-6, r, X, V_REF, TS, lines=[50.07, 150.2])
+    assert "resonance" not in v.residual

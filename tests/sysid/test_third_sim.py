@@ -160,6 +160,43 @@ def test_hum_is_a_mains_line_in_the_position_at_rest(cases: dict[str, S.Case]) -
     assert np.std(ctrl.rows["pos"][rest_c]) < 0.2 * np.std(x)
 
 
+def test_the_hum_is_diagnosed_as_a_sensor_disturbance_never_a_resonance(tmp_path: Path) -> None:
+    # a tuning seed (THIRD_TUNING_SEEDS) whose residual was "an oscillation near 49.8 Hz (a
+    # resonance)" with the hum left out of the floor
+    case = S.draw_case("hum", 3)
+    out = C.diagnose_case(case, tmp_path)
+    assert out.ok, out.failures
+    report = out.report
+    assert report is not None
+    a1, f_hum = case.machine.hum[0], case.machine.hum[1]
+    lines = report["sensor_disturbance"]
+    assert [round(ln["frequency_hz"] / f_hum) for ln in lines] == [1, 3]
+    assert lines[0]["frequency_hz"] == pytest.approx(f_hum, abs=0.05)
+    assert all("rests" in ln["where"] and ln["unit"] == case.unit for ln in lines)
+    # the loop feeds the hum back and shapes it: the measured line is the sensor's within a
+    # few times (the sensitivity of the loop at 50 Hz)
+    assert 0.5 * a1 <= lines[0]["amplitude_m"] <= 4.0 * a1
+    per_unit = {"m": 1.0, "mm": 1e-3, "um": 1e-6}[case.unit]
+    assert lines[0]["amplitude"] * per_unit == pytest.approx(lines[0]["amplitude_m"])
+    floor = report["noise_floor"]
+    assert floor["rms_m"] > 2.0 * floor["sensor_rms_m"]
+    assert floor["prediction_floor_m"] >= floor["sensor_disturbance_rms_m"]
+    assert any(w.startswith("sensor disturbance") for w in report["warnings"])
+    detail = report["verdict_detail"]
+    assert "resonance" not in detail["residual"] + detail["reason"]
+    assert report["verdict"] == "nothing_to_explain"
+
+
+def test_the_hum_is_found_in_a_short_run(cases: dict[str, S.Case], tmp_path: Path) -> None:
+    case = cases["hum"]
+    out = C.diagnose_case(case, tmp_path, extra_args=("--max-effects", "0"))
+    lines = out.report["sensor_disturbance"] if out.report else []
+    assert lines and lines[0]["frequency_hz"] == pytest.approx(case.machine.hum[1], abs=0.5)
+    # and none in an encoder's run of the same length
+    ctrl = C.diagnose_case(cases["servo_control"], tmp_path, extra_args=("--max-effects", "0"))
+    assert ctrl.report is not None and ctrl.report["sensor_disturbance"] == []
+
+
 def test_gravity_offsets_the_vertical_axis_effort_at_rest(cases: dict[str, S.Case]) -> None:
     case = cases["vertical"]
     mc = case.machine

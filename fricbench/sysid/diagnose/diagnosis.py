@@ -35,12 +35,14 @@ from fricbench.sysid.diagnose.models import (
     InverseDynamics,
     PositionFit,
     position_params,
+    prediction_floor,
     simulate_position,
 )
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare, substeps
 from fricbench.sysid.diagnose.search import SearchResult, effects_tried, forward_selection
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
+from fricbench.sysid.diagnose.signals import NoiseFloor, SensorLine, mains_visible, sensor_lines
 from fricbench.sysid.diagnose.uncertainty import ModelUncertainty, model_uncertainty
 from fricbench.sysid.diagnose.verdict import Verdict, judge
 from fricbench.sysid.io import RunData
@@ -143,6 +145,24 @@ class DiagnosisResult:
     loop_decisions: list[dict[str, object]] = field(default_factory=list)
     """Loop structures tried beside the chosen one (a faster loop, a drive limit) and the
     criterion's decision on each."""
+    sensor_lines: list[SensorLine] = field(default_factory=list)
+    """Periodic components of the measurement that are no motion (mains hum), found in the
+    rests of the reference and in the final residual (:func:`_sensor_disturbance`)."""
+    floor: float | None = None
+    """The floor of a free-run prediction the verdict uses when there are sensor lines (the
+    search's, or the prediction floor of the sensor's noise with the lines' power added,
+    whichever is larger); None: the search's."""
+
+    @property
+    def noise(self) -> NoiseFloor:
+        """The position's noise floor with every sensor line found (rests and residual)."""
+        return self.prep.noise.with_lines(self.sensor_lines) if self.sensor_lines else \
+            self.prep.noise
+
+    @property
+    def prediction_floor(self) -> float:
+        """The floor of a free-run prediction the verdict compares the residual with, SI."""
+        return self.search.floor if self.floor is None else self.floor
 
     @property
     def warnings(self) -> list[str]:
@@ -161,10 +181,11 @@ class DiagnosisResult:
         else:
             held, name = (pos["rms_before"], pos["rms_after"]), "training (free run)"
         unit = self.run.logged_unit
-        return judge(self.effects, pos["rms_after"], max(self.search.floor, 1e-300),
+        return judge(self.effects, pos["rms_after"], max(self.prediction_floor, 1e-300),
                      self.prep.x - self.train.y_after, self.prep.x, self.prep.inputs.vr,
                      self.prep.ts, heldout=held, heldout_name=name,
-                     length=lambda v: f"{v * unit.per_si:.4g} {unit.display}")
+                     length=lambda v: f"{v * unit.per_si:.4g} {unit.display}",
+                     lines=[ln.frequency_hz for ln in self.sensor_lines])
 
     @property
     def effects(self) -> list[str]:
@@ -261,8 +282,10 @@ class DiagnosisResult:
         out["loop_structure"] = list(self.loop_decisions)
         out["stop_reason"] = self.search.stop_reason
         out["rejected_at_last_step"] = [c.to_dict() for c in rejected]
-        out["noise_floor"] = dict(self.prep.noise.to_dict(),
-                                  prediction_floor_m=self.search.floor)
+        out["noise_floor"] = dict(self.noise.to_dict(), prediction_floor_m=self.prediction_floor)
+        logged = self.run.logged_unit
+        out["sensor_disturbance"] = [ln.to_dict(logged.to_si, logged.name)
+                                     for ln in self.sensor_lines]
         out["data"] = {"source": self.run.source, "samples": self.run.n_samples,
                        "ts_s": self.run.ts, "duration_s": self.run.duration,
                        "reversals": self.run.n_reversals, "columns": self.run.columns,
@@ -343,6 +366,57 @@ def _model_dict(model: GreyBox, force_unit: str) -> dict[str, object]:
         plant["command_delay_loop_periods"] = int(p[CL.I_DELAY])
     return {"controller": model.controller.to_dict(), "plant": plant,
             "effects": {e: describe_parameters(e, p, force_unit) for e in model.effects}}
+
+
+def _sensor_disturbance(prep: Prepared, search: SearchResult, y_after: np.ndarray,
+                        settings: DiagnoseSettings) -> tuple[list[SensorLine], float | None]:
+    """The sensor's periodic disturbances and the floor of a free-run prediction with them.
+
+    Lines of the mains are sought in the final residual (the rests' were found by
+    :func:`~fricbench.sysid.diagnose.prepared.prepare` and are already in ``prep.noise``); a
+    line found in both keeps the rests' amplitude (the axis still, the cleanest view of the
+    sensor). One grid feeds a site: when lines of both fundamentals are found, those of the one
+    whose lines carry less power are dropped.
+
+    The floor: the prediction floor with the sensor's own noise and quantisation
+    (:func:`~fricbench.sysid.diagnose.models.prediction_floor`; the lower of the search's base
+    model's and the final model's, as the search takes it: a poorly damped model exaggerates
+    the noise it is fed), the lines' power added (``hypot``), or the search's floor when
+    larger. None without lines.
+    """
+    r = prep.x - y_after
+    found = (sensor_lines(r, prep.ts, [(0, prep.n)], "residual", settings,
+                          floor=prep.noise.sensor_rms) if np.all(np.isfinite(r)) else [])
+    merged = {(ln.mains_hz, ln.harmonic): ln for ln in prep.noise.lines}
+    for ln in found:
+        key = (ln.mains_hz, ln.harmonic)
+        merged[key] = (dataclasses.replace(merged[key], where="rests and residual")
+                       if key in merged else ln)
+    if not merged:
+        return [], None
+    power: dict[float, float] = {}
+    for ln in merged.values():
+        power[ln.mains_hz] = power.get(ln.mains_hz, 0.0) + ln.variance
+    grid = max(power, key=lambda f: power[f])
+    lines = sorted((ln for ln in merged.values() if ln.mains_hz == grid),
+                   key=lambda ln: ln.frequency_hz)
+    sensor = dataclasses.replace(prep, noise=NoiseFloor(prep.noise.sigma, prep.noise.quantum,
+                                                        prep.noise.source))
+    pred = min(prediction_floor(m, sensor, _injected(m.controller, prep)[0])
+               for m in (search.steps[0].model, search.final.model))
+    disturbance = math.sqrt(sum(ln.variance for ln in lines))
+    return lines, max(search.floor, math.hypot(pred, disturbance))
+
+
+def _disturbance_words(lines: list[SensorLine], run: RunData) -> str:
+    """The warning of a sensor disturbance, amplitudes in the log's unit."""
+    unit = run.logged_unit
+    each = ", ".join(f"{ln.frequency_hz:.4g} Hz ({ln.amplitude * unit.per_si:.3g} "
+                     f"{unit.display} amplitude, in the {ln.where})" for ln in lines)
+    rms = math.sqrt(sum(ln.variance for ln in lines)) * unit.per_si
+    return (f"sensor disturbance: the measured position carries lines of the {lines[0].mains_hz:g} "
+            f"Hz mains ({each}): hum on the position sensor, no motion of the axis and no "
+            f"resonance; their power ({rms:.3g} {unit.display} rms) joins the noise floor")
 
 
 def _injected(ctrl: ArxController | CascadeController, prep: Prepared
@@ -1058,6 +1132,15 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         raise DiagnosisError("the fitted loop diverges in a free run of the training run: no "
                              "valid model of this run")
     warnings += search.warnings
+    lines, floor = _sensor_disturbance(prep, search, train.y_after, settings)
+    if lines:
+        warnings.append(_disturbance_words(lines, run))
+        log(f"warning: {warnings[-1]}")
+    if not mains_visible(prep.ts, settings):
+        notes.append(f"the log's Nyquist frequency ({0.5 / prep.ts:.4g} Hz) leaves no room for "
+                     f"the mains' lines ({min(settings.mains_hz):g} Hz and above, with the band "
+                     "around them): a hum of the sensor could not be told from motion, and none "
+                     "was sought")
     if uncertainty is None and fit.bounds is not None and fit.finite:
         uncertainty = model_uncertainty(final, prep, fit.bounds,
                                         _injected(final.controller, prep)[0], force_unit=fu,
@@ -1076,4 +1159,5 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
                            diagnosis_warnings=warnings, mode_comparison=fit.comparison,
                            validation_coverage=val_coverage, uncertainty=uncertainty,
-                           not_detected=not_detected, loop_decisions=fit.loop_decisions)
+                           not_detected=not_detected, loop_decisions=fit.loop_decisions,
+                           sensor_lines=lines, floor=floor)

@@ -10,18 +10,21 @@ Three verdicts (the report's top-level ``verdict``):
 * ``not_explained``: a residual well above the floor that no candidate explains. The residual
   is then described by the simplest structure that carries most of it (:func:`describe`): a
   drift in time, a term that follows the position, a lag behind the motion (a delay), or a
-  narrow peak of its spectrum (a resonance).
+  narrow peak of its spectrum (a resonance). A line of the sensor (mains hum,
+  :func:`fricbench.sysid.diagnose.signals.sensor_lines`) is no structure of the axis: it is
+  removed before, and never named a resonance.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
 
 from fricbench.sysid.diagnose.settings import defaults
+from fricbench.sysid.diagnose.signals import remove_lines
 
 __all__ = ["Verdict", "describe", "judge"]
 
@@ -61,7 +64,7 @@ def _lstsq_fit(cols: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 
 def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
-             unit: str = "m") -> str:
+             unit: str = "m", lines: Sequence[float] = ()) -> str:
     """What the residual ``r`` of a free-run prediction looks like, in words.
 
     Each structure is fitted by least squares and its share of the residual's variance
@@ -72,6 +75,10 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
     * a position dependence: the residual averaged in 64 bins of the position;
     * a resonance: a peak of the Welch spectrum at least 20 times its median level, the
       residual band-passed around it (+-10 %).
+
+    The sensor's lines (``lines``) are no structure of the axis: their least-squares
+    sinusoids are removed from ``r`` first, and no peak within ``settings.mains_tolerance`` of
+    one of them (or within two bins of the Welch spectrum) is named a resonance.
 
     Parameters
     ----------
@@ -85,6 +92,8 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
         Sample time, s.
     unit : str
         Position unit of ``r`` (for the delay's wording).
+    lines : sequence of float
+        Frequencies (Hz) of the sensor's lines (mains hum) found in the measurement.
 
     Returns
     -------
@@ -92,6 +101,10 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
     """
     n = r.shape[0]
     if n < 16 or not np.all(np.isfinite(r)) or float(np.var(r)) <= 0.0:
+        return "no structure (constant residual)"
+    lines = [float(f) for f in lines]
+    r = remove_lines(r, ts, lines)
+    if float(np.var(r)) <= 0.0:
         return "no structure (constant residual)"
     r = r - float(np.mean(r))
     t = np.linspace(-1.0, 1.0, n)
@@ -118,6 +131,12 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
                                                  "the stroke)")
     if n >= 256:
         f, pxx = signal.welch(r, fs=1.0 / ts, nperseg=min(n, 1024))
+        if lines:
+            # a sensor's line is no resonance of the axis, whatever is left of it
+            near = np.zeros(f.size, dtype=bool)
+            for fl in lines:
+                near |= np.abs(f - fl) <= max(defaults().mains_tolerance * fl, 2.0 * f[1])
+            pxx = np.where(near, 0.0, pxx)
         if pxx.size > 8:
             k = int(np.argmax(pxx[1:])) + 1
             peak = float(pxx[k] / max(float(np.median(pxx[1:])), 1e-300))
@@ -139,7 +158,8 @@ def describe(r: np.ndarray, x: np.ndarray, v_ref: np.ndarray, ts: float,
 def judge(effects: list[str], rms_after: float, floor: float, residual: np.ndarray,
           x: np.ndarray, v_ref: np.ndarray, ts: float, *,
           heldout: tuple[float, float] | None = None, heldout_name: str = "training",
-          length: Callable[[float], str] | None = None) -> Verdict:
+          length: Callable[[float], str] | None = None,
+          lines: Sequence[float] = ()) -> Verdict:
     """The verdict of a diagnosis (see the module docstring).
 
     Parameters
@@ -160,10 +180,14 @@ def judge(effects: list[str], rms_after: float, floor: float, residual: np.ndarr
         Which run ``heldout`` is from.
     length : callable, optional
         Formats a position figure (SI) in the log's unit (default: ``"%.4g m"``).
+    lines : sequence of float
+        Frequencies (Hz) of the sensor's lines (:func:`describe`); their power is in
+        ``floor`` already.
     """
     length = length or (lambda v: f"{v:.4g} m")
     at_floor = rms_after <= defaults().floor_factor * floor
-    looks = "at the noise floor" if at_floor else describe(residual, x, v_ref, ts)
+    looks = "at the noise floor" if at_floor else describe(residual, x, v_ref, ts,
+                                                                 lines=lines)
     if effects:
         before, after = heldout if heldout is not None else (float("nan"), float("nan"))
         if heldout is None or after < (1.0 - defaults().heldout_gain) * before:
