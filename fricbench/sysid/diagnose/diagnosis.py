@@ -35,14 +35,19 @@ from fricbench.sysid.diagnose.models import (
     InverseDynamics,
     PositionFit,
     position_params,
-    prediction_floor,
     simulate_position,
 )
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import Prepared, prepare, substeps
 from fricbench.sysid.diagnose.search import SearchResult, effects_tried, forward_selection
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
-from fricbench.sysid.diagnose.signals import NoiseFloor, SensorLine, mains_visible, sensor_lines
+from fricbench.sysid.diagnose.signals import (
+    NoiseFloor,
+    SensorLine,
+    mains_visible,
+    rest_segments,
+    sensor_lines,
+)
 from fricbench.sysid.diagnose.uncertainty import ModelUncertainty, model_uncertainty
 from fricbench.sysid.diagnose.verdict import Verdict, judge
 from fricbench.sysid.io import RunData
@@ -149,13 +154,13 @@ class DiagnosisResult:
     """Periodic components of the measurement that are no motion (mains hum), found in the
     rests of the reference and in the final residual (:func:`_sensor_disturbance`)."""
     floor: float | None = None
-    """The floor of a free-run prediction the verdict uses when there are sensor lines (the
-    search's, or the prediction floor of the sensor's noise with the lines' power added,
-    whichever is larger); None: the search's."""
+    """The floor of a free-run prediction the verdict uses when there are sensor lines: the
+    search's with the lines' power added; None: the search's."""
 
     @property
     def noise(self) -> NoiseFloor:
-        """The position's noise floor with every sensor line found (rests and residual)."""
+        """The position's noise floor with every sensor line found (rests and residual) in
+        it; the search's ``prep.noise`` is the sensor's own."""
         return self.prep.noise.with_lines(self.sensor_lines) if self.sensor_lines else \
             self.prep.noise
 
@@ -368,27 +373,31 @@ def _model_dict(model: GreyBox, force_unit: str) -> dict[str, object]:
             "effects": {e: describe_parameters(e, p, force_unit) for e in model.effects}}
 
 
-def _sensor_disturbance(prep: Prepared, search: SearchResult, y_after: np.ndarray,
+def _sensor_disturbance(prep: Prepared, search_floor: float, y_after: np.ndarray,
                         settings: DiagnoseSettings) -> tuple[list[SensorLine], float | None]:
     """The sensor's periodic disturbances and the floor of a free-run prediction with them.
 
-    Lines of the mains are sought in the final residual (the rests' were found by
-    :func:`~fricbench.sysid.diagnose.prepared.prepare` and are already in ``prep.noise``); a
-    line found in both keeps the rests' amplitude (the axis still, the cleanest view of the
-    sensor). One grid feeds a site: when lines of both fundamentals are found, those of the one
-    whose lines carry less power are dropped.
+    Lines of the mains are sought in the rests of the reference (the axis still, its transient
+    left out: :func:`~fricbench.sysid.diagnose.signals.rest_segments`) and in the final
+    residual; a line found in both keeps the rests' amplitude (the cleanest view of the
+    sensor). One grid feeds a site: when lines of both fundamentals are found, those of the
+    one whose lines carry less power are dropped.
 
-    The floor: the prediction floor with the sensor's own noise and quantisation
-    (:func:`~fricbench.sysid.diagnose.models.prediction_floor`; the lower of the search's base
-    model's and the final model's, as the search takes it: a poorly damped model exaggerates
-    the noise it is fed), the lines' power added (``hypot``), or the search's floor when
-    larger. None without lines.
+    The floor: the search's (the sensor's noise and quantisation fed through the loop) with the
+    lines' power added, ``hypot(search_floor, rms of the lines)``: the model's free run has no
+    hum, so its residual carries the measured lines whole. None without lines. The search
+    itself keeps the sensor's floor: its decisions (the loop, the effects) are those of a run
+    without the lines.
     """
+    st, sensor = settings, prep.noise.sensor_rms
+    xr = prep.inputs.xr
+    found = sensor_lines(prep.x - xr, prep.ts, rest_segments(xr, prep.ts, st), "rests", st,
+                         floor=sensor)
     r = prep.x - y_after
-    found = (sensor_lines(r, prep.ts, [(0, prep.n)], "residual", settings,
-                          floor=prep.noise.sensor_rms) if np.all(np.isfinite(r)) else [])
-    merged = {(ln.mains_hz, ln.harmonic): ln for ln in prep.noise.lines}
-    for ln in found:
+    residual = (sensor_lines(r, prep.ts, [(0, prep.n)], "residual", st, floor=sensor)
+                if np.all(np.isfinite(r)) else [])
+    merged = {(ln.mains_hz, ln.harmonic): ln for ln in found}
+    for ln in residual:
         key = (ln.mains_hz, ln.harmonic)
         merged[key] = (dataclasses.replace(merged[key], where="rests and residual")
                        if key in merged else ln)
@@ -400,12 +409,8 @@ def _sensor_disturbance(prep: Prepared, search: SearchResult, y_after: np.ndarra
     grid = max(power, key=lambda f: power[f])
     lines = sorted((ln for ln in merged.values() if ln.mains_hz == grid),
                    key=lambda ln: ln.frequency_hz)
-    sensor = dataclasses.replace(prep, noise=NoiseFloor(prep.noise.sigma, prep.noise.quantum,
-                                                        prep.noise.source))
-    pred = min(prediction_floor(m, sensor, _injected(m.controller, prep)[0])
-               for m in (search.steps[0].model, search.final.model))
     disturbance = math.sqrt(sum(ln.variance for ln in lines))
-    return lines, max(search.floor, math.hypot(pred, disturbance))
+    return lines, math.hypot(search_floor, disturbance)
 
 
 def _disturbance_words(lines: list[SensorLine], run: RunData) -> str:
@@ -1132,7 +1137,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         raise DiagnosisError("the fitted loop diverges in a free run of the training run: no "
                              "valid model of this run")
     warnings += search.warnings
-    lines, floor = _sensor_disturbance(prep, search, train.y_after, settings)
+    lines, floor = _sensor_disturbance(prep, search.floor, train.y_after, settings)
     if lines:
         warnings.append(_disturbance_words(lines, run))
         log(f"warning: {warnings[-1]}")

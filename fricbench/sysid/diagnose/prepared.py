@@ -20,8 +20,6 @@ from fricbench.sysid.diagnose.signals import (
     detect_saturation,
     filtered_derivatives,
     noise_floor,
-    rest_segments,
-    sensor_lines,
 )
 from fricbench.sysid.io import RunData
 
@@ -178,12 +176,6 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     vr = np.gradient(run.x_ref, ts)
     ar = np.gradient(vr, ts)
     noise = noise_floor(run.x, run.x_ref, quantum)
-    # periodic components of the measurement where the axis should not move (mains hum on an
-    # analog sensor): no motion, so they join the floor (its variance added)
-    rest_lines = sensor_lines(run.x - run.x_ref, ts, rest_segments(run.x_ref, ts), "rests",
-                              floor=noise.sensor_rms)
-    if rest_lines:
-        noise = noise.with_lines(rest_lines)
     auto_fc, auto_decim, source = choose_filter(run.x, ts, noise)
     if cutoff_hz is not None or decim is not None:
         source = "stated"
