@@ -138,6 +138,32 @@ def test_cli_open_loop_without_reference(tmp_path: pytest.TempPathFactory) -> No
     assert report["parameters"]["coulomb_friction"]["fc_N"] == pytest.approx(par["fc"], rel=0.1)
 
 
+def test_open_loop_hum_is_a_sensor_disturbance(tmp_path: pytest.TempPathFactory) -> None:
+    # the same run with mains hum on the position sensor (no reference: no rests, the lines
+    # are found in the free run's residual)
+    par, u, y = _draw(5)
+    t = np.arange(y.size) * TS
+    hum = 2e-6 * np.sin(2 * np.pi * 50.03 * t + 0.4) + 0.6e-6 * np.sin(2 * np.pi * 150.09 * t)
+    csv = os.path.join(str(tmp_path), "run.csv")
+    np.savetxt(csv, np.column_stack([t, 1e3 * (y + hum), u]), delimiter=",",
+               header="t,x,u", comments="", fmt="%.12g")
+    out = os.path.join(str(tmp_path), "report.json")
+    assert diagnose_main([csv, "--open-loop", "--position-unit", "mm", "--max-effects", "1",
+                          "--json", out, "--quiet"]) == 0
+    with open(out) as fh:
+        report = json.load(fh)
+    lines = report["sensor_disturbance"]
+    assert [(ln["mains_hz"], ln["harmonic"], ln["where"]) for ln in lines] == [
+        (50.0, 1, "residual"), (50.0, 3, "residual")]
+    assert lines[0]["frequency_hz"] == pytest.approx(50.03, abs=0.01)
+    assert lines[0]["amplitude_m"] == pytest.approx(2e-6, rel=0.05)
+    assert lines[0]["unit"] == "mm" and lines[0]["amplitude"] == pytest.approx(2e-3, rel=0.05)
+    nf = report["noise_floor"]
+    assert nf["sensor_disturbance_rms_m"] == pytest.approx(np.sqrt(2e-12 + 0.18e-12), rel=0.1)
+    assert nf["prediction_floor_m"] >= nf["sensor_disturbance_rms_m"]
+    assert any(w.startswith("sensor disturbance") for w in report["warnings"])
+
+
 MEASURED_TEST_MM = 6.84
 
 

@@ -419,7 +419,9 @@ def _run_open_loop(args: argparse.Namespace, run_data: RunData, other: RunData |
     try:
         report = diagnose_open_loop(run_data.t, run_data.u, run_data.x, validate=val,
                                     n_init=args.init_samples, force_unit=args.effort_unit,
-                                    max_effects=args.max_effects, log=log)
+                                    max_effects=args.max_effects, log=log,
+                                    position_unit=(run_data.logged_unit.name,
+                                                   run_data.logged_unit.to_si))
     except (ValueError, ArithmeticError) as exc:
         print(f"error: the open-loop diagnosis failed: {str(exc) or type(exc).__name__}",
               file=sys.stderr)

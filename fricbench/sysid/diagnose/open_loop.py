@@ -46,7 +46,7 @@ from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, si
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
-from fricbench.sysid.diagnose.signals import noise_floor
+from fricbench.sysid.diagnose.signals import noise_floor, sensor_lines
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
@@ -750,7 +750,8 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
                        n_init: int = 20, force_unit: str = "N", folds: int | None = None,
                        max_effects: int | None = None,
                        settings: DiagnoseSettings = DEFAULT_SETTINGS,
-                       log: Log | None = None) -> dict[str, object]:
+                       log: Log | None = None, position_unit: tuple[str, float] = ("m", 1.0)
+                       ) -> dict[str, object]:
     """Open-loop diagnosis of a run: the JSON-ready report of ``fricbench diagnose --open-loop``.
 
     ``position`` is the free-run simulation error of the measured position from the effort
@@ -758,6 +759,11 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     ``after``: the model the held-out search selected), raw, drift included; ``effort`` the
     relative error of the inverse dynamics; ``validation`` the same on ``validate``
     (``(t, effort, y)`` of another run, simulated from its first ``n_init`` samples only).
+
+    Lines of the mains in the final free-run residual (an open-loop run has no reference, so
+    no rests: :func:`~fricbench.sysid.diagnose.signals.sensor_lines`) are a sensor
+    disturbance: listed in ``sensor_disturbance`` (amplitudes also in ``position_unit``, the
+    log's unit and its size in SI), with a warning, their power added to ``noise_floor``.
     """
     ts = float(np.median(np.diff(t)))
     warnings: list[str] = []
@@ -816,6 +822,24 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     if float(pos["rms_after"]) > float(pos["rms_before"]):
         warnings.append("the selected model simulates worse than the linear rigid body on the "
                         "whole run (it was judged on held-out blocks)")
+    # the sensor's noise (third differences of the position, the motion's being small), and
+    # the mains' lines of the final free run's residual: no motion, so floor
+    noise = noise_floor(y, np.zeros_like(y))
+    resid = y - simulate_model(fit.model.plant, effort, y[:n_init], ts, n_init)[0]
+    lines = (sensor_lines(resid, ts, [(0, y.size)], "residual", settings,
+                          floor=noise.sensor_rms) if np.all(np.isfinite(resid)) else [])
+    floor = fit.floor
+    if lines:
+        noise = noise.with_lines(lines)
+        floor = math.hypot(fit.floor, noise.disturbance_rms)
+        unit, to_si = position_unit
+        warnings.append(
+            f"sensor disturbance: the measured position carries lines of the "
+            f"{lines[0].mains_hz:g} Hz mains (" + ", ".join(
+                f"{ln.frequency_hz:.4g} Hz, {ln.amplitude / to_si:.3g} {unit} amplitude"
+                for ln in lines) + "), in the residual: hum on the position sensor, no motion "
+            f"of the axis; their power ({noise.disturbance_rms / to_si:.3g} {unit} rms) joins "
+            "the noise floor")
     report: dict[str, object] = {
         "mode": "open_loop",
         "verdict": verdict,
@@ -823,10 +847,10 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
         "effects": list(fit.model.effects),
         "parameters": fit.model.describe(force_unit),
         "parameter_sd": fit.uncertainty(force_unit),
-        # the sensor's noise (third differences of the position, the motion's being small)
-        # and the floor of a held-out free run from a noisy start
-        "noise_floor": dict(noise_floor(y, np.zeros_like(y)).to_dict(),
-                            prediction_floor_m=fit.floor),
+        # the sensor's noise and the floor of a held-out free run from a noisy start (with
+        # the sensor's lines' power added)
+        "noise_floor": dict(noise.to_dict(), prediction_floor_m=floor),
+        "sensor_disturbance": [ln.to_dict(position_unit[1], position_unit[0]) for ln in lines],
         "not_detected": fit.not_detected,
         "position": train["position"],
         "effort": train["effort"],
