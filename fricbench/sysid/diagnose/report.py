@@ -221,7 +221,7 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     fig, axes = plt.subplots(1, n_rows, figsize=(4.5 * n_rows + 1, 3.6), squeeze=False)
     ax = axes[0, 0]
     ax.bar(range(len(steps)), [s.position_rms * um for s in steps], color="tab:blue")
-    ax.axhline(result.search.floor * um, color="k", ls="--", lw=0.8, label="noise floor")
+    ax.axhline(result.prediction_floor * um, color="k", ls="--", lw=0.8, label="noise floor")
     ax.set_xticks(range(len(steps)), labels, rotation=30, ha="right", fontsize=8)
     ax.set_ylabel(f"position rms error ({ul})")
     ax.legend(loc="upper right")
