@@ -121,27 +121,32 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
 _run_one = numba.njit(cache=True, fastmath=FASTMATH)(_run_one)
 
 
-@numba.njit(cache=True, parallel=True)
-def _run_batch(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np.ndarray,
-               t: np.ndarray, x0: float, v0: float, U0: np.ndarray, y_init: np.ndarray,
-               noise: np.ndarray, Y: np.ndarray, U: np.ndarray, Y2: np.ndarray,
-               status: np.ndarray, POS: np.ndarray, A2: np.ndarray, C2: np.ndarray,
-               R2: np.ndarray, G0: np.ndarray, I0: np.ndarray) -> None:
+# Row i runs law RI[i]: its reference parts R[RI[i]], R2[RI[i]] (the rows of a batch that share
+# a law, a Jacobian's plant columns, share one copy of its K-sample arrays). Both drivers
+# release the GIL: the diagnosis may run independent fits on threads of its own.
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _run_batch(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, RI: np.ndarray,
+               w: np.ndarray, t: np.ndarray, x0: float, v0: float, U0: np.ndarray,
+               y_init: np.ndarray, noise: np.ndarray, Y: np.ndarray, U: np.ndarray,
+               Y2: np.ndarray, status: np.ndarray, POS: np.ndarray, A2: np.ndarray,
+               C2: np.ndarray, R2: np.ndarray, G0: np.ndarray, I0: np.ndarray) -> None:
     for i in numba.prange(P.shape[0]):
-        status[i] = _run_one(P[i], A[i], C[i], R[i], w, t, x0, v0, U0[i], y_init, noise, Y[i],
-                             U[i], Y2[i], POS[i], A2[i], C2[i], R2[i], G0[i], I0[i])
+        j = RI[i]
+        status[i] = _run_one(P[i], A[i], C[i], R[j], w, t, x0, v0, U0[i], y_init, noise, Y[i],
+                             U[i], Y2[i], POS[i], A2[i], C2[i], R2[j], G0[i], I0[i])
 
 
-@numba.njit(cache=True)
-def _run_rows(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, w: np.ndarray,
-              t: np.ndarray, x0: float, v0: float, U0: np.ndarray, y_init: np.ndarray,
-              noise: np.ndarray, Y: np.ndarray, U: np.ndarray, Y2: np.ndarray,
-              status: np.ndarray, POS: np.ndarray, A2: np.ndarray, C2: np.ndarray,
-              R2: np.ndarray, G0: np.ndarray, I0: np.ndarray) -> None:
+@numba.njit(cache=True, nogil=True)
+def _run_rows(P: np.ndarray, A: np.ndarray, C: np.ndarray, R: np.ndarray, RI: np.ndarray,
+              w: np.ndarray, t: np.ndarray, x0: float, v0: float, U0: np.ndarray,
+              y_init: np.ndarray, noise: np.ndarray, Y: np.ndarray, U: np.ndarray,
+              Y2: np.ndarray, status: np.ndarray, POS: np.ndarray, A2: np.ndarray,
+              C2: np.ndarray, R2: np.ndarray, G0: np.ndarray, I0: np.ndarray) -> None:
     """:func:`_run_batch` on the calling thread (no parallel region)."""
     for i in range(P.shape[0]):
-        status[i] = _run_one(P[i], A[i], C[i], R[i], w, t, x0, v0, U0[i], y_init, noise, Y[i],
-                             U[i], Y2[i], POS[i], A2[i], C2[i], R2[i], G0[i], I0[i])
+        j = RI[i]
+        status[i] = _run_one(P[i], A[i], C[i], R[j], w, t, x0, v0, U0[i], y_init, noise, Y[i],
+                             U[i], Y2[i], POS[i], A2[i], C2[i], R2[j], G0[i], I0[i])
 
 
 def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray,
@@ -151,7 +156,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
                    other: np.ndarray | None = None, positional: np.ndarray | None = None,
                    a2: np.ndarray | None = None, c2: np.ndarray | None = None,
                    r2: np.ndarray | None = None, g_init: np.ndarray | None = None,
-                   i_init: np.ndarray | None = None,
+                   i_init: np.ndarray | None = None, law_index: np.ndarray | None = None,
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Simulate ``N`` parameter sets of the closed loop in parallel (one row each).
 
@@ -165,7 +170,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     c : ndarray, shape (N, nc)
         Law's feedback coefficients on ``y_fb[k] .. y_fb[k-nc+1]``.
     r : ndarray, shape (N, K)
-        Reference part of the law's output.
+        Reference part of the law's output (shape (L, K) with ``law_index``).
     t : ndarray, shape (K,)
         Sample times from the start of the run, s.
     ts : float
@@ -195,7 +200,10 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
         (clamping anti-windup). Other rows recurse on their clipped output (velocity form).
     a2, c2, r2, g_init, i_init : ndarray, optional
         Shapes (N, na2), (N, nc2 <= nc), (N, K), (N, na2), (N,); required with
-        ``positional``.
+        ``positional`` (``r2`` of shape (L, K) with ``law_index``).
+    law_index : ndarray of int, shape (N,), optional
+        Row ``i`` takes its reference parts from row ``law_index[i]`` of ``r`` and ``r2``
+        (rows that share a law need not repeat its K-sample arrays). Default: row ``i``.
 
     Returns
     -------
@@ -218,7 +226,15 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
                              dtype=float)
     C = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(c), (n_rows, np.shape(c)[-1])),
                              dtype=float)
-    R = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(r), (n_rows, n)), dtype=float)
+    if law_index is None:
+        R = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(r), (n_rows, n)), dtype=float)
+        RI = np.arange(n_rows, dtype=np.int64)
+    else:
+        R = np.ascontiguousarray(np.atleast_2d(r), dtype=float)
+        RI = np.ascontiguousarray(law_index, dtype=np.int64).reshape(n_rows)
+        if RI.size and (RI.min() < 0 or RI.max() >= R.shape[0]):
+            raise ValueError(f"law_index: expected indices into the {R.shape[0]} rows of r")
+    n_laws = R.shape[0]
     U0 = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(u_init),
                                               (n_rows, A.shape[1])), dtype=float)
     ww = np.zeros(n) if w is None else np.ascontiguousarray(w, dtype=float)
@@ -234,7 +250,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     if positional is None or not np.any(positional):
         pos = np.zeros(n_rows, dtype=np.bool_)
         A2, C2, G0 = (np.zeros((n_rows, 0)),) * 3
-        R2, I0 = np.zeros((n_rows, 1)), np.zeros(n_rows)
+        R2, I0 = np.zeros((n_laws, 1)), np.zeros(n_rows)
     else:
         pos = np.ascontiguousarray(positional, dtype=np.bool_).reshape(n_rows)
         if a2 is None or c2 is None or r2 is None or g_init is None or i_init is None:
@@ -245,7 +261,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
         G0 = np.ascontiguousarray(np.atleast_2d(g_init), dtype=float)
         I0 = np.ascontiguousarray(i_init, dtype=float).reshape(n_rows)
         if (A2.shape != G0.shape or A2.shape[0] != n_rows or C2.shape[0] != n_rows
-                or C2.shape[1] > C.shape[1] or R2.shape != (n_rows, n)):
+                or C2.shape[1] > C.shape[1] or R2.shape != (n_laws, n)):
             raise ValueError(f"a2, c2, r2, g_init: shapes {A2.shape}, {C2.shape}, {R2.shape}, "
                              f"{G0.shape} do not match {n_rows} rows of {n} samples with "
                              f"nc = {C.shape[1]}")
@@ -253,7 +269,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     # (on a loaded machine 11 ms against 5-9 ms for a 40,000-sample run); the row's code is
     # the same _run_one either way
     run = _run_rows if n_rows == 1 else _run_batch
-    run(P, A, C, R, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
+    run(P, A, C, R, RI, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
         np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status, pos, A2, C2, R2, G0, I0)
     return Y, U, status
 

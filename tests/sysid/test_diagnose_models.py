@@ -512,7 +512,7 @@ def test_a_run_simulated_again_is_the_run_simulated_first():
     for m in models:
         parts, laws, na, nc, pads = _law_of(m, prep)
         fresh.append(M._simulate_rows([m], parts, laws, prep.inputs, prep.n_sub, na, nc, pads,
-                                      None, None, 0.0, False))
+                                      None, None, 0.0, None))
     y, u, status = simulate_models(models, prep)
     # the rows of a batch are padded to its widest law: kept apart by their widths
     y2, u2, _ = simulate_models([pid, base, base, clipped], prep, effort=False)

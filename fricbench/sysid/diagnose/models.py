@@ -156,29 +156,48 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
         keys = [(src, m.plant.tobytes(), int(n_sub), na, nc,
                  pads if law is not None else None, None if w is None else id(w))
                 for m, src, law in zip(models, sources, laws, strict=True)]
-    Y = np.empty((n_rows, n))
-    U = np.empty((n_rows, n))
-    status = np.zeros(n_rows, dtype=np.int64)
     todo: list[int] = []
     first: dict[tuple, int] = {}
     same: list[tuple[int, int]] = []
+    hits: list[tuple[int, tuple]] = []
     for i, rk in enumerate(keys):
         hit = None if rk is None else _FREE_RUNS.run(inp, rk, m=models[i], w=w,
                                                        other=other is not None, effort=effort)
         if hit is not None:
-            Y[i], U[i], status[i] = hit[0], math.nan if hit[1] is None else hit[1], hit[3]
-            if other is not None:
-                other[i] = hit[2]
+            hits.append((i, hit))
         elif rk is not None and rk in first:
             same.append((i, first[rk]))
         else:
             if rk is not None:
                 first[rk] = i
             todo.append(i)
+    if len(todo) == n_rows:
+        # every row simulated (a Jacobian's batch, as a rule): the kernel's arrays are the
+        # outputs, rather than copies of them into new ones
+        out = other
+        if other is not None and (other.dtype != np.float64 or not other.flags.c_contiguous):
+            out = np.empty((n_rows, n))
+        Y, U, status, _ = _simulate_rows(models, parts, laws, inp, n_sub, na, nc, pads, w,
+                                         noise, quant, out)
+        if other is not None and out is not other:
+            other[...] = out
+        for i, rk in enumerate(keys):
+            if rk is not None:
+                _FREE_RUNS.store(inp, rk, models[i], w, Y[i], U[i] if effort else None,
+                                 None if out is None else out[i], int(status[i]))
+        return Y, U, status
+    Y = np.empty((n_rows, n))
+    U = np.empty((n_rows, n))
+    status = np.zeros(n_rows, dtype=np.int64)
+    for i, hit in hits:
+        Y[i], U[i], status[i] = hit[0], math.nan if hit[1] is None else hit[1], hit[3]
+        if other is not None:
+            other[i] = hit[2]
     if todo:
+        o_todo = None if other is None else np.empty((len(todo), n))
         y, u, st, y2 = _simulate_rows([models[i] for i in todo], [parts[i] for i in todo],
                                       [laws[i] for i in todo], inp, n_sub, na, nc, pads, w,
-                                      noise, quant, other is not None)
+                                      noise, quant, o_todo)
         for j, i in enumerate(todo):
             Y[i], U[i], status[i] = y[j], u[j], st[j]
             if other is not None and y2 is not None:
@@ -197,42 +216,56 @@ def simulate_inputs(models: Sequence[GreyBox], inp: LoopInputs, n_sub: int = 2,
 def _simulate_rows(models: Sequence[GreyBox], parts: Sequence[tuple],
                    laws: Sequence[PositionalLaw | None], inp: LoopInputs, n_sub: int,
                    na: int, nc: int, pads: tuple[int, int] | None, w: np.ndarray | None,
-                   noise: np.ndarray | None, quant: float, want_other: bool
+                   noise: np.ndarray | None, quant: float, other: np.ndarray | None
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """One batch of the kernel: ``models`` with their laws' arrays padded to ``na``, ``nc``
-    (and ``pads`` for the positional laws' increments). Returns ``(y, u, status, other)``."""
+    (and ``pads`` for the positional laws' increments); ``other``, when given, receives the
+    other encoder's position. Returns ``(y, u, status, other)``."""
     n = int(inp.t.shape[0])
     n_rows = len(models)
     A = np.zeros((n_rows, na))
     C = np.zeros((n_rows, nc))
-    R = np.empty((n_rows, n))
     U0 = np.zeros((n_rows, na))
     y_init = inp.history(max(nc, 1))
-    for i, (a, c, r, u0, _) in enumerate(parts):
+    # the rows that share a law (the same arrays: one controller of the call) share its
+    # reference parts in the kernel: one copy of each K-sample array per law, not per row
+    index: dict[tuple[int, int], int] = {}
+    firsts: list[int] = []  # the first row of each law
+    law_index = np.empty(n_rows, dtype=np.int64)
+    for i, (part, law) in enumerate(zip(parts, laws, strict=True)):
+        a, c, _, u0, _ = part
         A[i, : a.shape[0]] = a
         C[i, : c.shape[0]] = c
-        R[i] = r
         U0[i, : u0.shape[0]] = u0
+        j = index.setdefault((id(part), id(law)), len(firsts))
+        if j == len(firsts):
+            firsts.append(i)
+        law_index[i] = j
+    R = np.empty((len(firsts), n))
+    for j, i in enumerate(firsts):
+        R[j] = parts[i][2]
     P = np.stack([m.plant for m in models])
     extra: dict[str, np.ndarray] = {}
     if pads is not None and any(law is not None for law in laws):
         na2, nc2 = pads
         extra = {"positional": np.array([law is not None for law in laws]),
                  "a2": np.zeros((n_rows, na2)), "c2": np.zeros((n_rows, nc2)),
-                 "r2": np.zeros((n_rows, n)), "g_init": np.zeros((n_rows, na2)),
+                 "r2": np.zeros((len(firsts), n)), "g_init": np.zeros((n_rows, na2)),
                  "i_init": np.zeros(n_rows)}
         for i, law in enumerate(laws):
             if law is None:
                 continue
             extra["a2"][i, : law.a2.shape[0]] = law.a2
             extra["c2"][i, : law.c2.shape[0]] = law.c2
-            extra["r2"][i] = law.r2
             extra["g_init"][i, : law.g_init.shape[0]] = law.g_init
             extra["i_init"][i] = law.i_init
-    other = np.empty((n_rows, n)) if want_other else None
+        for j, i in enumerate(firsts):
+            law = laws[i]
+            if law is not None:
+                extra["r2"][j] = law.r2
     y, u, status = CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
                                      v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
-                                     quant=quant, other=other,
+                                     quant=quant, other=other, law_index=law_index,
                                      **extra)  # type: ignore[arg-type]
     return y, u, status, other
 
