@@ -14,6 +14,9 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import threading
+from collections.abc import Iterator
+from typing import Any
 
 import scipy.linalg  # noqa: F401  (loads scipy's BLAS before the controller looks for it)
 from threadpoolctl import ThreadpoolController
@@ -27,6 +30,28 @@ def _controller() -> ThreadpoolController:
     return ThreadpoolController()
 
 
-def one_blas_thread() -> contextlib.AbstractContextManager[object]:
-    """Context in which numpy's and scipy's BLAS and LAPACK calls use one thread."""
-    return _controller().limit(limits=1, user_api="blas")
+# The limit is the process's (BLAS has one thread count): contexts entered from several
+# threads share it, set by the first one in and lifted by the last one out. Each thread
+# restoring what it found would lift it under another that is still inside.
+class _Held:
+    lock = threading.Lock()
+    limiter: Any = None
+    depth = 0
+
+
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Context in which numpy's and scipy's BLAS and LAPACK calls use one thread (for
+    every thread of the process while any thread is inside one)."""
+    with _Held.lock:
+        if _Held.depth == 0:
+            _Held.limiter = _controller().limit(limits=1, user_api="blas")
+        _Held.depth += 1
+    try:
+        yield
+    finally:
+        with _Held.lock:
+            _Held.depth -= 1
+            if _Held.depth == 0:
+                _Held.limiter.restore_original_limits()
+                _Held.limiter = None

@@ -157,7 +157,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
                    a2: np.ndarray | None = None, c2: np.ndarray | None = None,
                    r2: np.ndarray | None = None, g_init: np.ndarray | None = None,
                    i_init: np.ndarray | None = None, law_index: np.ndarray | None = None,
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   parallel: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Simulate ``N`` parameter sets of the closed loop in parallel (one row each).
 
     Parameters
@@ -204,6 +204,9 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     law_index : ndarray of int, shape (N,), optional
         Row ``i`` takes its reference parts from row ``law_index[i]`` of ``r`` and ``r2``
         (rows that share a law need not repeat its K-sample arrays). Default: row ``i``.
+    parallel : bool
+        Run the rows on numba's threads (False: one after the other on the calling thread,
+        for a caller that runs batches on threads of its own). The rows' numbers are the same.
 
     Returns
     -------
@@ -268,7 +271,7 @@ def simulate_batch(plant: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarra
     # one row runs on this thread: a parallel region for it only waits for the idle workers
     # (on a loaded machine 11 ms against 5-9 ms for a 40,000-sample run); the row's code is
     # the same _run_one either way
-    run = _run_rows if n_rows == 1 else _run_batch
+    run = _run_rows if n_rows == 1 or not parallel else _run_batch
     run(P, A, C, R, RI, ww, np.ascontiguousarray(t, dtype=float), float(x0), float(v0), U0,
         np.ascontiguousarray(y_init, dtype=float), nn, Y, U, Y2, status, pos, A2, C2, R2, G0, I0)
     return Y, U, status

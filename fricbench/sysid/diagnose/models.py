@@ -17,15 +17,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import threading
 import weakref
 from collections import OrderedDict
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass, field, replace
+from typing import TypeVar
 
 import numpy as np
 from scipy import optimize, signal
 
+from fricbench._blas import one_blas_thread
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import (
     ArxController,
@@ -45,7 +49,11 @@ from fricbench.sysid.diagnose.signals import (
 
 __all__ = ["GreyBox", "simulate_position", "simulate_models", "simulate_inputs", "Param",
            "position_params", "PositionFit", "JointPositionFit", "InverseDynamics",
-           "cascade_effort", "Bounds", "prediction_floor", "NoStartError"]
+           "cascade_effort", "Bounds", "prediction_floor", "NoStartError", "run_concurrently"]
+
+_T = TypeVar("_T")
+_LOCK = threading.Lock()
+
 
 class NoStartError(ValueError):
     """An effect's nonlinear parameter has no start on this run (it cannot be fitted)."""
@@ -266,8 +274,49 @@ def _simulate_rows(models: Sequence[GreyBox], parts: Sequence[tuple],
     y, u, status = CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
                                      v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
                                      quant=quant, other=other, law_index=law_index,
+                                     parallel=not getattr(_THREAD, "concurrent", False),
                                      **extra)  # type: ignore[arg-type]
     return y, u, status, other
+
+
+_THREAD = threading.local()  # .concurrent: this thread runs a task of run_concurrently
+_POOL: list[ThreadPoolExecutor] = []
+
+
+def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
+    """The results of ``tasks``, independent computations (a fit on each fold), run on two
+    threads at once when the machine has two cores.
+
+    The kernel releases the GIL, and a task's batches then run on its own thread (not on
+    numba's, which the other task would wait for): while one task is in Python (the
+    optimiser, the residuals) the other's free runs use the second core. The results are
+    the same numbers as one task after the other: each task computes from its own inputs,
+    a kept free run is handed back as computed, and BLAS holds one thread throughout (its
+    thread count is the process's: a task's dense algebra must not depend on whether the
+    other is inside an SVD). A task that calls this again runs its own tasks in turn.
+    """
+    if len(tasks) < 2 or getattr(_THREAD, "concurrent", False) or (os.cpu_count() or 1) < 2:
+        return [task() for task in tasks]
+    with _LOCK:
+        if not _POOL:
+            _POOL.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose"))
+    pool = _POOL[0]
+    with one_blas_thread():
+        futures = [pool.submit(_as_task, task) for task in tasks[1:]]
+        try:
+            first = _as_task(tasks[0])
+        finally:
+            # the other tasks finish inside the BLAS limit, whatever the first one did
+            wait(futures)
+        return [first, *(f.result() for f in futures)]
+
+
+def _as_task(task: Callable[[], _T]) -> _T:
+    _THREAD.concurrent = True
+    try:
+        return task()
+    finally:
+        _THREAD.concurrent = False
 
 
 class _Lru:

@@ -36,6 +36,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -60,6 +61,7 @@ from fricbench.sysid.diagnose.models import (
     cascade_effort,
     position_params,
     prediction_floor,
+    run_concurrently,
     simulate_models,
     simulate_position,
 )
@@ -1105,8 +1107,10 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
 
         base_heldout = 0.0
         base_blocks = np.zeros(0)
+        # the two folds' fits are independent: on two threads at once (the same numbers)
+        base_fits = run_concurrently([partial(fold_fit, m, prep.folds != k) for k in (0, 1)])
         for k in (0, 1):
-            fk = fold_fit(m, prep.folds != k)
+            fk = base_fits[k]
             base_heldout += _position_sse(fk.y, prep, prep.folds == k)
             base_blocks = np.concatenate([base_blocks, _block_sse(fk.y, prep, k)])
         scores: list[CandidateScore] = []
@@ -1131,20 +1135,29 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             heldout = 0.0
             cand_blocks = np.zeros(0)
             fits: dict[int, PositionFitResult] = {}
-            for k in (0, 1):
+
+            def candidate_fit(k: int, name: str = name, m: GreyBox = m, y: np.ndarray = cur.y,
+                              variants: dict = variants, runners_up: dict = runners_up,
+                              first: bool = len(steps) == 1) -> PositionFitResult:
                 train = prep.folds != k
                 if get_effect(name).kind == "output":
-                    starts = [_output_start(m, name, prep, b, cur.y, train)]
+                    starts = [_output_start(m, name, prep, b, y, train)]
                 else:
                     starts = _fit_starts(variants[name], name, b)
-                    if len(steps) == 1:
+                    if first:
                         # a model of the loop fitted with this very effect (the drive limit's
                         # fit holds a Coulomb force) is a start too
                         starts += [st.copy() for st in alt_starts if st.effects == (name,)]
                     starts += _equation_error_starts(m, name, prep, b, train)
                 if name in runners_up:
                     starts.append(_carried_over(m, name, runners_up[name][k]))
-                res = min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
+                return min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
+
+            # each fold's starts and fits are its own: both folds on two threads at once
+            fold_results = run_concurrently([partial(candidate_fit, k) for k in (0, 1)])
+            for k in (0, 1):
+                train = prep.folds != k
+                res = fold_results[k]
                 fits[k] = res
                 heldout += _position_sse(res.y, prep, ~train)
                 cand_blocks = np.concatenate([cand_blocks, _block_sse(res.y, prep, k)])
@@ -1300,10 +1313,11 @@ def _heldout_position_sse(model: GreyBox, prep: Prepared, b: Bounds, budget_iter
                           ) -> float:
     """Held-out position error of ``model``: fitted on each fold, scored on the other."""
     total = 0.0
+    fits = run_concurrently([partial(PositionFit(prep, _eval_params(model, b),
+                                                 prep.folds != k).run, model,
+                                     max_iter=budget_iter) for k in (0, 1)])
     for k in (0, 1):
-        train = prep.folds != k
-        res = PositionFit(prep, _eval_params(model, b), train).run(model, max_iter=budget_iter)
-        total += _position_sse(res.y, prep, ~train)
+        total += _position_sse(fits[k].y, prep, prep.folds == k)
     return total
 
 
