@@ -7,6 +7,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from fricbench.sysid.diagnose.models import (
     PositionFitResult,
     cascade_effort,
     position_params,
+    run_concurrently,
     simulate_inputs,
     simulate_models,
 )
@@ -293,10 +295,10 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         starts += [grid[i] for i in np.argsort(sse)[:n_best] if np.isfinite(sse[i])]
     if not starts:
         return None
-    fits = []
-    for m in starts:
-        params = position_params(m, bounds, controller=True) + limit_params
-        fits.append(PositionFit(prep, params).run(m, max_iter=max_iter))
+    # independent fits: on two threads at once (the same numbers)
+    fits = run_concurrently([
+        partial(PositionFit(prep, position_params(m, bounds, controller=True)
+                            + limit_params).run, m, max_iter=max_iter) for m in starts])
     best = min(fits, key=lambda r: r.cost)
     if not np.isfinite(best.cost):
         return None
@@ -587,11 +589,12 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     n_grid = len(loops) * len(friction_starts)
     best = None
     best_pid = None
-    for i in order:
-        if not np.isfinite(sse[i]):
-            continue
-        fit = PositionFit(prep, position_params(starts[i], bounds, controller=True))
-        res = fit.run(starts[i], max_iter=max_iter)
+    # the starts' fits are independent: on two threads at once (the same numbers)
+    order = [i for i in order if np.isfinite(sse[i])]
+    refined = run_concurrently([
+        partial(PositionFit(prep, position_params(starts[i], bounds, controller=True)).run,
+                starts[i], max_iter=max_iter) for i in order])
+    for i, res in zip(order, refined, strict=True):
         if i >= n_grid and _gain_on_bound(res.model, bounds) is not None:
             # an equation error's loop refined to a gain on its bound stands in for another
             # mismatch (a thermal drift, on the second simulator's thermal/2: its feedforwards

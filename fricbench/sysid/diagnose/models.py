@@ -22,9 +22,9 @@ import threading
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from typing import TypeVar
+from typing import TypeVar, cast
 
 import numpy as np
 from scipy import optimize, signal
@@ -284,16 +284,19 @@ _POOL: list[ThreadPoolExecutor] = []
 
 
 def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
-    """The results of ``tasks``, independent computations (a fit on each fold), run on two
-    threads at once when the machine has two cores.
+    """The results of ``tasks``, independent computations (a fit on each fold, fits from
+    several starts), in their order, run on two threads at once when the machine has two
+    cores: the calling thread and one worker take the tasks in turn.
 
     The kernel releases the GIL, and a task's batches then run on its own thread (not on
     numba's, which the other task would wait for): while one task is in Python (the
     optimiser, the residuals) the other's free runs use the second core. The results are
-    the same numbers as one task after the other: each task computes from its own inputs,
-    a kept free run is handed back as computed, and BLAS holds one thread throughout (its
-    thread count is the process's: a task's dense algebra must not depend on whether the
-    other is inside an SVD). A task that calls this again runs its own tasks in turn.
+    the same numbers as the tasks one after the other: each task computes from its own
+    inputs, a kept free run is handed back as computed, and BLAS holds one thread throughout
+    (its thread count is the process's: a task's dense algebra must not depend on whether
+    the other is inside an SVD). A task that calls this again runs its own tasks in turn.
+    An exception is raised once every task has ended: the first task's, in their order, that
+    raised one (the one the tasks in turn would have raised).
     """
     if len(tasks) < 2 or getattr(_THREAD, "concurrent", False) or (os.cpu_count() or 1) < 2:
         return [task() for task in tasks]
@@ -301,22 +304,35 @@ def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
         if not _POOL:
             _POOL.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose"))
     pool = _POOL[0]
-    with one_blas_thread():
-        futures = [pool.submit(_as_task, task) for task in tasks[1:]]
+    results: list[_T | None] = [None] * len(tasks)
+    errors: list[BaseException | None] = [None] * len(tasks)
+    order = iter(range(len(tasks)))
+    take = threading.Lock()
+
+    def drain() -> None:
+        _THREAD.concurrent = True
         try:
-            first = _as_task(tasks[0])
+            while True:
+                with take:
+                    i = next(order, None)
+                if i is None:
+                    return
+                try:
+                    results[i] = tasks[i]()
+                except BaseException as exc:  # noqa: BLE001 (raised below, in order)
+                    errors[i] = exc
         finally:
-            # the other tasks finish inside the BLAS limit, whatever the first one did
-            wait(futures)
-        return [first, *(f.result() for f in futures)]
+            _THREAD.concurrent = False
 
-
-def _as_task(task: Callable[[], _T]) -> _T:
-    _THREAD.concurrent = True
-    try:
-        return task()
-    finally:
-        _THREAD.concurrent = False
+    with one_blas_thread():
+        # the worker's tasks end inside the BLAS limit too, whatever the caller's did
+        worker = pool.submit(drain)
+        drain()
+        worker.result()
+    for exc in errors:
+        if exc is not None:
+            raise exc
+    return cast(list[_T], results)
 
 
 class _Lru:

@@ -1368,11 +1368,12 @@ def _refit(start: GreyBox, prep: Prepared, b: Bounds, max_iter: int) -> Position
     # whatever the start, the integral action may not collapse (see _eval_params)
     c0 = start.controller
     ki_min = (c0.ki / c0.wv) / defaults().refit_box if isinstance(c0, CascadeController) else 0.0
-    for k, m in enumerate(candidates):
-        params = position_params(m, b, controller=True,
-                                 controller_box=defaults().refit_box if k == 0 else None,
-                                 ki_min_ratio=ki_min)
-        res = PositionFit(prep, params).run(m, max_iter=max_iter)
+    params = [position_params(m, b, controller=True,
+                              controller_box=defaults().refit_box if k == 0 else None,
+                              ki_min_ratio=ki_min) for k, m in enumerate(candidates)]
+    # independent fits: on two threads at once (the same numbers)
+    for res in run_concurrently([partial(PositionFit(prep, p).run, m, max_iter=max_iter)
+                                 for p, m in zip(params, candidates, strict=True)]):
         if best is None or res.cost < best.cost:
             best = res
     assert best is not None
