@@ -89,6 +89,11 @@ class LoopInputs:
         return LoopInputs(t=t, ts=self.loop_ts, xr=xr, vr=vr, ar=ar, x0=self.x0, v0=self.v0,
                           u0=self.u0)
 
+    @cached_property
+    def ar_step(self) -> np.ndarray:
+        """``a_r[k] - a_r[k-1]`` (0 at the first sample)."""
+        return self.ar - np.concatenate([[self.ar[0]], self.ar[:-1]])
+
     def history(self, n: int) -> np.ndarray:
         """Positions ``x[-1] .. x[-n]`` before the run (constant-velocity extrapolation)."""
         return self.x0 - self.v0 * self.ts * np.arange(1, n + 1)
@@ -184,12 +189,17 @@ class CascadeController:
             return self._arx_general(inp)
         ts = inp.ts
         alpha = 1.0 - ts * self.ki
-        ref_e = self.kp * inp.xr + self.kvff * inp.vr
+        ref_e = self.kp * inp.xr
+        ref_e += self.kvff * inp.vr
         prev_ref_e = self.kp * (inp.xr[0] - inp.vr[0] * ts) + self.kvff * inp.vr[0]
-        ref_prev = np.concatenate([[prev_ref_e], ref_e[:-1]])
-        a_prev = np.concatenate([[inp.ar[0]], inp.ar[:-1]])
-        # u[k] = u[k-1] + wv (e_v[k] - alpha e_v[k-1]) + kaff (a_r[k] - a_r[k-1])
-        r = self.wv * (ref_e - alpha * ref_prev) + self.kaff * (inp.ar - a_prev)
+        # u[k] = u[k-1] + wv (e_v[k] - alpha e_v[k-1]) + kaff (a_r[k] - a_r[k-1]), computed
+        # in place (a law per Jacobian row of the loop's gains: fewer K-sample temporaries),
+        # each element by the same operations as the expression
+        r = np.empty_like(ref_e)
+        r[0] = ref_e[0] - alpha * prev_ref_e
+        np.subtract(ref_e[1:], alpha * ref_e[:-1], out=r[1:])
+        r *= self.wv
+        r += self.kaff * inp.ar_step
         g = self.kp + 1.0 / ts
         c = self.wv * np.array([-g, 1.0 / ts + alpha * g, -alpha / ts])
         a = np.array([1.0])

@@ -274,13 +274,25 @@ def _simulate_rows(models: Sequence[GreyBox], parts: Sequence[tuple],
     y, u, status = CL.simulate_batch(P, A, C, R, inp.t, inp.ts, n_sub=n_sub, x0=inp.x0,
                                      v0=inp.v0, u_init=U0, y_init=y_init, w=w, noise=noise,
                                      quant=quant, other=other, law_index=law_index,
-                                     parallel=not getattr(_THREAD, "concurrent", False),
+                                     parallel=(not getattr(_THREAD, "concurrent", False)
+                                               or _RUNNING.threads < 2),
                                      **extra)  # type: ignore[arg-type]
     return y, u, status, other
 
 
 _THREAD = threading.local()  # .concurrent: this thread runs a task of run_concurrently
 _POOL: list[ThreadPoolExecutor] = []
+
+
+class _Running:
+    """Threads of :func:`run_concurrently` still running a task (the last one left runs its
+    batches on numba's threads again)."""
+
+    def __init__(self) -> None:
+        self.threads = 0
+
+
+_RUNNING = _Running()
 
 
 def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
@@ -290,7 +302,8 @@ def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
 
     The kernel releases the GIL, and a task's batches then run on its own thread (not on
     numba's, which the other task would wait for): while one task is in Python (the
-    optimiser, the residuals) the other's free runs use the second core. The results are
+    optimiser, the residuals) the other's free runs use the second core; once no task is
+    left to take, the last one's batches run on numba's threads again. The results are
     the same numbers as the tasks one after the other: each task computes from its own
     inputs, a kept free run is handed back as computed, and BLAS holds one thread throughout
     (its thread count is the process's: a task's dense algebra must not depend on whether
@@ -308,6 +321,7 @@ def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
     errors: list[BaseException | None] = [None] * len(tasks)
     order = iter(range(len(tasks)))
     take = threading.Lock()
+    _RUNNING.threads = 2
 
     def drain() -> None:
         _THREAD.concurrent = True
@@ -315,6 +329,9 @@ def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
             while True:
                 with take:
                     i = next(order, None)
+                    if i is None:
+                        # the last task left runs its batches on numba's threads again
+                        _RUNNING.threads -= 1
                 if i is None:
                     return
                 try:
