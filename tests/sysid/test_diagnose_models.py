@@ -537,3 +537,68 @@ def _law_of(m: GreyBox, prep) -> tuple:
     else:
         law, part, pads = None, m.controller.arx(prep.inputs), None
     return [part], [law], part[0].shape[0], part[1].shape[0], pads
+
+
+def test_a_batch_is_the_same_numbers_on_either_driver_and_with_shared_laws():
+    """A batch's rows come out bit for bit the same on numba's threads or on the calling
+    thread (``parallel=False``, the drivers of run_concurrently's tasks), and with the rows
+    of one law sharing its reference arrays (``law_index``)."""
+    from fricbench.sysid.diagnose import models as M
+
+    ref = _reference(1.0)
+    axis = Axis()
+    res = simulate(axis, ref)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
+    base = _grey_box_of(axis)
+    other = base.copy(controller=base.controller.with_values(kp=base.controller.kp * 1.1))
+    rows = [base, other, base.copy(), other.copy()]
+    for m in rows[2:]:
+        m.plant[CL.I_B] *= 1.5
+    inp = prep.inputs
+    arrays = [m.controller.arx(inp) for m in rows]
+    a = np.stack([x[0] for x in arrays])
+    c = np.stack([x[1] for x in arrays])
+    u0 = np.stack([x[3] for x in arrays])
+    P = np.stack([m.plant for m in rows])
+    kw = dict(n_sub=prep.n_sub, x0=inp.x0, v0=inp.v0, u_init=u0, y_init=arrays[0][4])
+    y, u, _ = CL.simulate_batch(P, a, c, np.stack([x[2] for x in arrays]), inp.t, inp.ts, **kw)
+    shared = np.stack([arrays[0][2], arrays[1][2]])
+    for parallel in (True, False):
+        y2, u2, _ = CL.simulate_batch(P, a, c, shared, inp.t, inp.ts, parallel=parallel,
+                                      law_index=np.array([0, 1, 0, 1]), **kw)
+        assert y2.tobytes() == y.tobytes() and u2.tobytes() == u.tobytes()
+    assert M.simulate_models(rows, prep)[0].tobytes() == y.tobytes()
+
+
+def test_run_concurrently_is_the_tasks_in_turn():
+    """Results in the tasks' order, the first error in that order raised once all ended, a
+    nested call run in turn, BLAS on one thread inside and its limit lifted after."""
+    from functools import partial
+
+    from threadpoolctl import threadpool_info
+
+    from fricbench.sysid.diagnose.models import run_concurrently
+
+    def blas_threads() -> set[int]:
+        return {d["num_threads"] for d in threadpool_info() if d["user_api"] == "blas"}
+
+    before = blas_threads()
+    done: list[int] = []
+
+    def task(i: int) -> tuple[int, set[int]]:
+        done.append(i)
+        return i * i, blas_threads()
+
+    out = run_concurrently([partial(task, i) for i in range(5)])
+    assert [r for r, _ in out] == [0, 1, 4, 9, 16] and all(t == {1} for _, t in out)
+    assert sorted(done) == list(range(5)) and blas_threads() == before
+    nested = run_concurrently([lambda: run_concurrently([lambda: 1, lambda: 2]), lambda: 3])
+    assert nested == [[1, 2], 3]
+
+    def bad(msg: str) -> int:
+        raise ValueError(msg)
+
+    done.clear()
+    with pytest.raises(ValueError, match="first"):
+        run_concurrently([partial(bad, "first"), partial(task, 7), partial(bad, "second")])
+    assert done == [7] and blas_threads() == before
