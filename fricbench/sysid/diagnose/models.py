@@ -293,6 +293,8 @@ class _Running:
 
 
 _RUNNING = _Running()
+# a forked child has none of its parent's threads: it starts a worker of its own
+os.register_at_fork(after_in_child=_POOL.clear)
 
 
 def run_concurrently(tasks: Sequence[Callable[[], _T]]) -> list[_T]:
@@ -407,7 +409,9 @@ class _FreeRunCache:
 
     def __init__(self, budget: int = 256 * 2**20, law_budget: int = 32 * 2**20) -> None:
         self._stores = {"run": _Lru(budget), "law": _Lru(law_budget)}
-        self._lock = threading.Lock()
+        # reentrant: a set of inputs collected while its thread holds the lock (a cycle
+        # freed by the collector inside put) drops its entries from that thread
+        self._lock = threading.RLock()
         self._inputs: set[int] = set()
 
     def _watch(self, inp: LoopInputs) -> int:
