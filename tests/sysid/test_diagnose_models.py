@@ -493,17 +493,23 @@ def test_a_loop_faster_than_the_log_is_its_fine_run_at_the_logged_samples() -> N
                        n_loop=bad)  # type: ignore[arg-type]
 
 
+def _two_loops(duration: float) -> tuple:
+    """``(prep, base, other)``: the default axis's run of ``duration`` s prepared, its grey
+    box, and the same with a 10 % higher position gain."""
+    axis = Axis()
+    res = simulate(axis, _reference(duration))
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
+    base = _grey_box_of(axis)
+    faster = base.controller.with_values(kp=base.controller.kp * 1.1)
+    return prep, base, base.copy(controller=faster)
+
+
 def test_a_run_simulated_again_is_the_run_simulated_first():
     """The free runs kept (:class:`models._FreeRunCache`) come back bit for bit: a model
     simulated again, alone, twice in one batch, beside other rows or without its effort."""
     from fricbench.sysid.diagnose import models as M
 
-    ref = _reference(2.0)
-    axis = Axis()
-    res = simulate(axis, ref)
-    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
-    base = _grey_box_of(axis)
-    other = base.copy(controller=base.controller.with_values(kp=base.controller.kp * 1.1))
+    prep, base, other = _two_loops(2.0)
     pid = base.copy(controller=base.controller.with_values(kpi=50.0, vel_pole=0.3))
     clipped = base.copy()
     clipped.plant[CL.I_IMAX] = 0.5  # a positional law (the drive clips)
@@ -545,12 +551,7 @@ def test_a_batch_is_the_same_numbers_on_either_driver_and_with_shared_laws():
     of one law sharing its reference arrays (``law_index``)."""
     from fricbench.sysid.diagnose import models as M
 
-    ref = _reference(1.0)
-    axis = Axis()
-    res = simulate(axis, ref)
-    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
-    base = _grey_box_of(axis)
-    other = base.copy(controller=base.controller.with_values(kp=base.controller.kp * 1.1))
+    prep, base, other = _two_loops(1.0)
     rows = [base, other, base.copy(), other.copy()]
     for m in rows[2:]:
         m.plant[CL.I_B] *= 1.5
