@@ -44,6 +44,7 @@ from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings
 from fricbench.sysid.diagnose.signals import (
     NoiseFloor,
     SensorLine,
+    disturbance_warning,
     mains_visible,
     rest_segments,
     sensor_lines,
@@ -411,17 +412,6 @@ def _sensor_disturbance(prep: Prepared, search_floor: float, y_after: np.ndarray
                    key=lambda ln: ln.frequency_hz)
     disturbance = math.sqrt(sum(ln.variance for ln in lines))
     return lines, math.hypot(search_floor, disturbance)
-
-
-def _disturbance_words(lines: list[SensorLine], run: RunData) -> str:
-    """The warning of a sensor disturbance, amplitudes in the log's unit."""
-    unit = run.logged_unit
-    each = ", ".join(f"{ln.frequency_hz:.4g} Hz ({ln.amplitude * unit.per_si:.3g} "
-                     f"{unit.display} amplitude, in the {ln.where})" for ln in lines)
-    rms = math.sqrt(sum(ln.variance for ln in lines)) * unit.per_si
-    return (f"sensor disturbance: the measured position carries lines of the {lines[0].mains_hz:g} "
-            f"Hz mains ({each}): hum on the position sensor, no motion of the axis and no "
-            f"resonance; their power ({rms:.3g} {unit.display} rms) joins the noise floor")
 
 
 def _injected(ctrl: ArxController | CascadeController, prep: Prepared
@@ -1139,7 +1129,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     warnings += search.warnings
     lines, floor = _sensor_disturbance(prep, search.floor, train.y_after, settings)
     if lines:
-        warnings.append(_disturbance_words(lines, run))
+        warnings.append(disturbance_warning(lines, run.logged_unit.display,
+                                            1.0 / run.logged_unit.per_si))
         log(f"warning: {warnings[-1]}")
     if not mains_visible(prep.ts, settings):
         notes.append(f"the log's Nyquist frequency ({0.5 / prep.ts:.4g} Hz) leaves no room for "

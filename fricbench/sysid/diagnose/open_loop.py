@@ -46,7 +46,7 @@ from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, si
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
-from fricbench.sysid.diagnose.signals import noise_floor, sensor_lines
+from fricbench.sysid.diagnose.signals import disturbance_warning, noise_floor, sensor_lines
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
@@ -832,14 +832,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     if lines:
         noise = noise.with_lines(lines)
         floor = math.hypot(fit.floor, noise.disturbance_rms)
-        unit, to_si = position_unit
-        warnings.append(
-            f"sensor disturbance: the measured position carries lines of the "
-            f"{lines[0].mains_hz:g} Hz mains (" + ", ".join(
-                f"{ln.frequency_hz:.4g} Hz, {ln.amplitude / to_si:.3g} {unit} amplitude"
-                for ln in lines) + "), in the residual: hum on the position sensor, no motion "
-            f"of the axis; their power ({noise.disturbance_rms / to_si:.3g} {unit} rms) joins "
-            "the noise floor")
+        warnings.append(disturbance_warning(lines, *position_unit))
     report: dict[str, object] = {
         "mode": "open_loop",
         "verdict": verdict,

@@ -10,6 +10,8 @@ filtering does not bias a model that is linear in its parameters.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,7 +20,8 @@ from scipy import optimize, signal
 from fricbench.sysid.diagnose.settings import DiagnoseSettings, defaults
 
 __all__ = ["filtered_derivatives", "decimate_columns", "NoiseFloor", "noise_floor",
-           "SensorLine", "sensor_lines", "rest_segments", "mains_visible", "remove_lines",
+           "SensorLine", "sensor_lines", "disturbance_warning", "rest_segments", "mains_visible",
+           "remove_lines",
            "block_folds", "fold_blocks", "period_candidates",
            "choose_filter", "Saturation", "detect_saturation"]
 
@@ -161,6 +164,19 @@ class SensorLine:
                 "unit": unit, "amplitude_m": self.amplitude, "harmonic": self.harmonic,
                 "mains_hz": self.mains_hz, "where": self.where,
                 "ratio_to_local_level": self.ratio}
+
+
+def disturbance_warning(lines: Sequence[SensorLine], unit: str = "m", to_si: float = 1.0
+                        ) -> str:
+    """The warning of a sensor disturbance (both loops' reports), amplitudes in the log's
+    ``unit`` (``to_si`` SI units each)."""
+    each = ", ".join(f"{ln.frequency_hz:.4g} Hz ({ln.amplitude / to_si:.3g} {unit} amplitude, "
+                     f"in the {ln.where})" for ln in lines)
+    rms = math.sqrt(sum(ln.variance for ln in lines)) / to_si
+    return (f"sensor disturbance: the measured position carries lines of the "
+            f"{lines[0].mains_hz:g} Hz mains ({each}): hum on the position sensor, no motion of "
+            f"the axis and no resonance; their power ({rms:.3g} {unit} rms) joins the noise "
+            "floor")
 
 
 def _quantum(x: np.ndarray) -> float:
