@@ -263,7 +263,9 @@ def _cached_reference(id: str, items: tuple[tuple[str, Any], ...], ts: float) ->
 
 REFERENCE_BYTES_PER_SAMPLE = 96
 """Estimated bytes per reference sample while it is generated and held by an env: the
-reference's ``t, x, v, a``, the env's ``x, v, a`` tables and the generator's temporaries."""
+reference's ``t, x, v, a``, the env's ``x, v, a`` tables and the generator's temporaries (the
+vector env's float32 table of scaled features, 12 B, is built once those temporaries are
+gone)."""
 
 
 MAX_EPISODE_SAMPLES = 1_000_000

@@ -26,7 +26,7 @@ from fricbench.gym.task import (
     reference_for,
     stack_references,
 )
-from fricbench.gym.vector_step import vector_step
+from fricbench.gym.vector_step import reference_features, vector_step_rows, vector_step_shared
 
 __all__ = ["AXIS_OBJECT_BYTES", "ServoAxisVectorEnv", "bytes_per_env"]
 
@@ -155,6 +155,9 @@ class ServoAxisVectorEnv(VectorEnv):
             raise ValueError("ServoAxisVectorEnv drives single-axis references only")
         pad = int(self._offsets[-1]) if self._offsets.size else 0
         self._X, self._V, self._A, self._len = stack_references(refs, pad)
+        # the step copies the scaled reference features from this table (vector_step)
+        self._F = reference_features(self._X, self._V, self._A, self._inv_scales)
+        self._preview = (3 * self._offsets).astype(np.uint64)
         self._names = [r.name for r in refs]
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (self._nf,), np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
@@ -234,13 +237,12 @@ class ServoAxisVectorEnv(VectorEnv):
         reward = self.task.reward
         # while every row holds the same plant (no friction redrawn, no plant set per row)
         # the compiled step unpacks it once per step instead of once per sub-env
-        code = vector_step(self._batch.P, self._shared_plant, self._batch.S, self._X, self._V,
-                           self._A, self._len, self._ref_id, self._k, a, hold,
-                           self.task.action == "force",
-                           self.task.action_scale, draws, self._offsets, self._scales,
-                           self._inv_scales, reward.error_scale, reward.action_weight,
-                           self._prev_action, self._work, self._batch.status, obs, rewards,
-                           truncated)
+        step = vector_step_shared if self._shared_plant else vector_step_rows
+        code = step(self._batch.P, self._batch.S, self._X, self._V, self._A, self._F,
+                    self._len, self._ref_id, self._k, a, hold, self.task.action == "force",
+                    self.task.action_scale, draws, self._preview, self._scales,
+                    self._inv_scales, reward.error_scale, reward.action_weight,
+                    self._prev_action, self._work, self._batch.status, obs, rewards, truncated)
         if code < 0:
             raise ValueError(f"actions[{-1 - code}] = {a[-1 - code]!r}: contains NaN or inf")
         if code > 0:

@@ -24,10 +24,42 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from fricbench.axis import plant as PL
-from fricbench.axis.kernel import FASTMATH, S_XMEAS, advance_axis_with, gains
-from fricbench.gym.task import observe_row
+from fricbench.axis.kernel import (
+    FASTMATH,
+    P_KT,
+    P_TS,
+    S_IAPP,
+    S_XFB,
+    S_XFB_PREV,
+    S_XMEAS,
+    advance_axis_with,
+    gains,
+)
 
-__all__ = ["step_reward", "vector_step"]
+__all__ = ["N_TABLE_FEATURES", "reference_features", "step_reward", "vector_step",
+           "vector_step_rows", "vector_step_shared"]
+
+N_TABLE_FEATURES = 3
+"""Scaled reference features per sample in :func:`reference_features`'s table."""
+
+
+def reference_features(X: np.ndarray, V: np.ndarray, A: np.ndarray,
+                       inv: np.ndarray) -> np.ndarray:
+    """The observation's reference features of every sample, flattened: for row ``i``,
+    sample ``k``, entries ``(i L + k) * 3 + (0, 1, 2)`` hold ``x_r / x_s, v_r / v_s,
+    a_r / a_s`` as float32 (``inv``: the reciprocals of the scales, as
+    :func:`fricbench.gym.task.observe_row` takes them).
+
+    Each is the float64 product rounded once to float32, as the observation stores it: the
+    step copies them instead of scaling and rounding 13 values per sub-env (the current
+    sample's three and the preview's velocity and acceleration), which cost about a tenth of
+    the step at 4096 sub-envs.
+    """
+    table = np.empty(X.shape + (N_TABLE_FEATURES,), dtype=np.float32)
+    table[..., 0] = X * inv[1]
+    table[..., 1] = V * inv[2]
+    table[..., 2] = A * inv[3]
+    return table.reshape(-1)
 
 
 @intrinsic
@@ -60,16 +92,20 @@ def step_reward(d: float, inv_e: float, e_s: float, inv_rs: float, a: float,
     return _fma(-e, e, -((a * a) * w))  # type: ignore[call-arg]
 
 
-# _nrt=False: numba's (underscored, unstubbed) option for a function that allocates nothing
-@numba.njit(cache=True, fastmath=FASTMATH, _nrt=False)  # type: ignore[call-overload]
+# compiled only inlined into the two entry points below, which fix ``shared``
+@numba.njit(cache=True, inline="always", fastmath=FASTMATH)
 def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np.ndarray,
-                A: np.ndarray, lengths: np.ndarray, ref_id: np.ndarray, k: np.ndarray,
+                A: np.ndarray, F: np.ndarray, lengths: np.ndarray, ref_id: np.ndarray,
+                k: np.ndarray,
                 action: np.ndarray, hold: np.ndarray, force_action: bool, action_scale: float,
-                draws: np.ndarray, offsets: np.ndarray, scales: np.ndarray, inv: np.ndarray,
+                draws: np.ndarray, preview: np.ndarray, scales: np.ndarray, inv: np.ndarray,
                 reward_error_scale: float, action_weight: float, prev_action: np.ndarray,
                 work: np.ndarray, status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
                 truncated: np.ndarray) -> int:
     """Advance every sub-env that is not held by one control sample.
+
+    Called through :func:`vector_step_shared` or :func:`vector_step_rows`, compiled for one
+    value of ``shared`` each (the other path compiled out).
 
     Parameters
     ----------
@@ -77,9 +113,12 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         Packed parameters and states of the ``N`` axes (kernel layout); ``S`` is updated.
     shared : bool
         Every row of ``P`` is the same (friction not redrawn per sub-env): the constants of
-        the first are unpacked once per call and it stands for every sub-env's row.
+        the first are unpacked once per call and it stands for every sub-env's row. A
+        constant in each entry point.
     X, V, A : ndarray, shape (R, L)
         Padded reference tables; sub-env ``n`` follows row ``ref_id[n]`` at sample ``k[n]``.
+    F : ndarray of float32, shape (R * L * 3,)
+        The scaled reference features of every sample (:func:`reference_features`).
     lengths : ndarray of int64, shape (R,)
         Samples of each reference (the episode truncates at ``lengths - 1``).
     ref_id, k : ndarray of int64, shape (N,)
@@ -96,9 +135,11 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         N (force) or m (offset) per unit action.
     draws : ndarray, shape (N,)
         Standard normal draws for the measurement noise of this step.
-    offsets, scales, inv : ndarray
-        Preview offsets, observation scales (:func:`fricbench.gym.task.obs_scales`) and
-        their reciprocals.
+    preview : ndarray of uint64, shape (n_preview,)
+        Offsets of the preview points in ``F``: 3 times their sample offsets
+        (:func:`fricbench.gym.task.preview_offsets`).
+    scales, inv : ndarray
+        Observation scales (:func:`fricbench.gym.task.obs_scales`) and their reciprocals.
     reward_error_scale, action_weight : float
         ``r = -(e / reward_error_scale)^2 - action_weight a^2`` with ``e`` the measured error
         (:func:`step_reward`).
@@ -128,6 +169,8 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
     inv_e, e_s = inv[0], scales[0]
     inv_rs = 1.0 / reward_error_scale
     first_bad = 0
+    n_samples = X.shape[1]
+    n_prev = preview.shape[0]
     # unpacking a plant row (divisions, branches) costs a third of a sample: done once when
     # the rows share one plant, else per row as the kernel's drivers do; the shared row also
     # stands for every sub-env's in the gains and the observation, and its gains are unpacked
@@ -167,7 +210,22 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
             k[n] = kk + 1
         prev_action[n] = a
         kk = k[n]
-        observe_row(n, S, p0 if shared else P[n], X, V, A, i, kk, offsets, a, inv, obs)
+        # the observation (fricbench.gym.task.observe_row's layout and arithmetic), its
+        # reference features copied from F; indices unsigned: numba then emits no negative-
+        # index wrap-around, of which each of the preview's reads paid one
+        p = p0 if shared else P[n]
+        base = np.uint64((i * n_samples + kk) * 3)
+        obs[n, 0] = (X[i, kk] - S[n, S_XMEAS]) * inv[0]
+        obs[n, 1] = F[base]
+        obs[n, 2] = F[base + np.uint64(1)]
+        obs[n, 3] = F[base + np.uint64(2)]
+        obs[n, 4] = (S[n, S_XFB] - S[n, S_XFB_PREV]) / p[P_TS] * inv[2]
+        obs[n, 5] = a
+        obs[n, 6] = p[P_KT] * S[n, S_IAPP] * inv[4]
+        for j in range(n_prev):
+            q = base + preview[j]
+            obs[n, 7 + j] = F[q + np.uint64(1)]
+            obs[n, 7 + n_prev + j] = F[q + np.uint64(2)]
         if hold[n]:
             reward[n] = 0.0
             truncated[n] = False
@@ -176,3 +234,38 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
                                     action_weight)
             truncated[n] = kk >= lengths[i] - 1
     return first_bad
+
+
+# Two entry points, one per plant layout, each with the other's path compiled out: in one
+# function the two copies of the inlined kernel body (a few kB of code each) cost the shared
+# path about 6 % of its time (9 ns per sub-env step at 4096 PaperAxis-v0 sub-envs), its register
+# allocation and code layout made for both. _nrt=False: numba's (underscored, unstubbed) option
+# for a function that allocates nothing.
+@numba.njit(cache=True, fastmath=FASTMATH, _nrt=False)  # type: ignore[call-overload]
+def vector_step_shared(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray,
+                       A: np.ndarray, F: np.ndarray, lengths: np.ndarray, ref_id: np.ndarray,
+                       k: np.ndarray, action: np.ndarray, hold: np.ndarray, force_action: bool,
+                       action_scale: float, draws: np.ndarray, preview: np.ndarray,
+                       scales: np.ndarray, inv: np.ndarray, reward_error_scale: float,
+                       action_weight: float, prev_action: np.ndarray, work: np.ndarray,
+                       status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+                       truncated: np.ndarray) -> int:
+    """:func:`vector_step` with ``shared=True``: every row of ``P`` is the same."""
+    return vector_step(P, True, S, X, V, A, F, lengths, ref_id, k, action, hold, force_action,
+                       action_scale, draws, preview, scales, inv, reward_error_scale,
+                       action_weight, prev_action, work, status, obs, reward, truncated)
+
+
+@numba.njit(cache=True, fastmath=FASTMATH, _nrt=False)  # type: ignore[call-overload]
+def vector_step_rows(P: np.ndarray, S: np.ndarray, X: np.ndarray, V: np.ndarray,
+                     A: np.ndarray, F: np.ndarray, lengths: np.ndarray, ref_id: np.ndarray,
+                     k: np.ndarray, action: np.ndarray, hold: np.ndarray, force_action: bool,
+                     action_scale: float, draws: np.ndarray, preview: np.ndarray,
+                     scales: np.ndarray, inv: np.ndarray, reward_error_scale: float,
+                     action_weight: float, prev_action: np.ndarray, work: np.ndarray,
+                     status: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+                     truncated: np.ndarray) -> int:
+    """:func:`vector_step` with ``shared=False``: each sub-env's plant from its own row."""
+    return vector_step(P, False, S, X, V, A, F, lengths, ref_id, k, action, hold, force_action,
+                       action_scale, draws, preview, scales, inv, reward_error_scale,
+                       action_weight, prev_action, work, status, obs, reward, truncated)
