@@ -179,3 +179,29 @@ def test_unknown_autoreset_mode_is_refused() -> None:
     spec = get_spec("fricbench/PaperAxis-v0")
     with pytest.raises(ValueError, match="autoreset_mode='Disabled'"):
         ServoAxisVectorEnv(num_envs=2, axis=spec.axis, task=spec.task, autoreset_mode="Disabled")
+
+
+def test_the_step_copies_the_features_fill_observation_computes() -> None:
+    """The step's reference features come from the env's float32 table (the current sample's
+    position, velocity and acceleration and the preview's velocities and accelerations); each
+    observation it returns is, bit for bit, what ``fill_observation`` (the reset's and the
+    scalar env's path) computes from the env's state, with its preview past the reference's end
+    where the table is padded."""
+    from fricbench.gym.task import fill_observation
+
+    venv = _venv(5, "random")
+    venv.reset(seed=4)
+    assert venv._F.dtype == np.float32
+    table = venv._F.reshape(venv._X.shape + (3,))
+    for col, ref, scale in ((0, venv._X, 1), (1, venv._V, 2), (2, venv._A, 3)):
+        assert np.array_equal(table[..., col], (ref * venv._inv_scales[scale]).astype(np.float32))
+    rng = np.random.default_rng(5)
+    end = int(venv._len.min()) - 1
+    for _ in range(end):
+        obs, *_ = venv.step(rng.uniform(-1.0, 1.0, (5, 1)))
+        expected = np.empty((5, venv._nf))
+        fill_observation(venv._batch.S, venv._batch.P, venv._X, venv._V, venv._A, venv._ref_id,
+                         venv._k, venv._offsets, venv._prev_action, venv._scales, expected)
+        assert np.array_equal(obs, expected.astype(np.float32))
+    # the last samples' preview reads the padding beyond the reference
+    assert int(venv._k.max()) + int(venv._offsets[-1]) >= int(venv._len.min())
