@@ -322,7 +322,9 @@ def observe_row(r: int, S: np.ndarray, p: np.ndarray, X: np.ndarray, V: np.ndarr
     """Fill ``out[r]`` with the scaled observation of axis ``r`` of ``S`` (parameter row ``p``,
     ``P[r]`` or a row equal to it) following reference row ``i`` of the tables ``X, V, A`` at
     sample ``kk`` (the layout of :func:`fill_observation`; ``inv`` holds the reciprocals of the
-    scales, so the row costs no division).
+    scales, so the row costs no division). The native vector env's step writes the same row
+    with the same arithmetic, its reference features copied from a table
+    (:func:`fricbench.gym.vector_step.vector_step`; tests/gym/test_vector.py pins the two equal).
     """
     n_prev = offsets.shape[0]
     inv_e, inv_x, inv_v, inv_a, inv_f = inv[0], inv[1], inv[2], inv[3], inv[4]

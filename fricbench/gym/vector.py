@@ -26,7 +26,12 @@ from fricbench.gym.task import (
     reference_for,
     stack_references,
 )
-from fricbench.gym.vector_step import reference_features, vector_step_rows, vector_step_shared
+from fricbench.gym.vector_step import (
+    N_TABLE_FEATURES,
+    reference_features,
+    vector_step_rows,
+    vector_step_shared,
+)
 
 __all__ = ["AXIS_OBJECT_BYTES", "ServoAxisVectorEnv", "bytes_per_env"]
 
@@ -157,7 +162,7 @@ class ServoAxisVectorEnv(VectorEnv):
         self._X, self._V, self._A, self._len = stack_references(refs, pad)
         # the step copies the scaled reference features from this table (vector_step)
         self._F = reference_features(self._X, self._V, self._A, self._inv_scales)
-        self._preview = (3 * self._offsets).astype(np.uint64)
+        self._preview = (N_TABLE_FEATURES * self._offsets).astype(np.uint64)
         self._names = [r.name for r in refs]
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (self._nf,), np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)

@@ -3,9 +3,10 @@ observation, reward and truncation for every sub-env.
 
 The physics is the kernel's own per-axis body (:func:`fricbench.axis.kernel.advance_axis_with`,
 with the plant constants and gains of each row, or of the one row every sub-env shares) and
-the observation is :func:`fricbench.gym.task.observe_row`; this module only fuses the per-step
-glue around them, which in numpy cost as much as the physics at 4096 envs (a dozen passes over
-the batch and their temporaries).
+the observation is that of :func:`fricbench.gym.task.observe_row` (the reset's and the scalar
+env's), its reference features copied from a table scaled once (:func:`reference_features`);
+this module only fuses the per-step glue around them, which in numpy cost as much as the
+physics at 4096 envs (a dozen passes over the batch and their temporaries).
 
 The step is compiled without numba's reference counting (``_nrt=False``: it allocates nothing).
 With it, every sub-env paid an atomic increment and decrement for each array handed to the
@@ -117,7 +118,7 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         constant in each entry point.
     X, V, A : ndarray, shape (R, L)
         Padded reference tables; sub-env ``n`` follows row ``ref_id[n]`` at sample ``k[n]``.
-    F : ndarray of float32, shape (R * L * 3,)
+    F : ndarray of float32, shape (R * L * N_TABLE_FEATURES,)
         The scaled reference features of every sample (:func:`reference_features`).
     lengths : ndarray of int64, shape (R,)
         Samples of each reference (the episode truncates at ``lengths - 1``).
@@ -136,7 +137,8 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
     draws : ndarray, shape (N,)
         Standard normal draws for the measurement noise of this step.
     preview : ndarray of uint64, shape (n_preview,)
-        Offsets of the preview points in ``F``: 3 times their sample offsets
+        Offsets of the preview points in ``F``: :data:`N_TABLE_FEATURES` times their sample
+        offsets
         (:func:`fricbench.gym.task.preview_offsets`).
     scales, inv : ndarray
         Observation scales (:func:`fricbench.gym.task.obs_scales`) and their reciprocals.
@@ -214,7 +216,7 @@ def vector_step(P: np.ndarray, shared: bool, S: np.ndarray, X: np.ndarray, V: np
         # reference features copied from F; indices unsigned: numba then emits no negative-
         # index wrap-around, of which each of the preview's reads paid one
         p = p0 if shared else P[n]
-        base = np.uint64((i * n_samples + kk) * 3)
+        base = np.uint64((i * n_samples + kk) * N_TABLE_FEATURES)
         obs[n, 0] = (X[i, kk] - S[n, S_XMEAS]) * inv[0]
         obs[n, 1] = F[base]
         obs[n, 2] = F[base + np.uint64(1)]
