@@ -72,27 +72,40 @@ def sampled_plant(axis: Axis) -> control.StateSpace:
                           _compliance(axis.effects))
 
 
-Compliance = tuple[float, float, float, bool]
-"""``(load fraction, resonance Hz, damping ratio, feedback on the table)`` of a compliant axis."""
+Compliance = tuple[float, float, float, bool, bool]
+"""``(load fraction, resonance Hz, damping ratio, feedback on the table, friction and damping
+on the load)`` of a compliant axis."""
 
-RIGID: Compliance = (0.0, 50.0, 0.05, False)
+RIGID: Compliance = (0.0, 50.0, 0.05, False, False)
 
 
 def _compliance(e: Effects) -> Compliance:
     if e.compliance_load_fraction <= 0.0:
         return RIGID
     return (e.compliance_load_fraction, e.compliance_frequency, e.compliance_damping,
-            e.measurement == "table")
+            e.measurement == "table", e.compliance_friction == "load")
 
 
 def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int,
                    comp: Compliance = RIGID) -> control.StateSpace:
     h = c.ts / c.n_substeps
-    ratio, f_r, zeta, table = comp
+    ratio, f_r, zeta, table, on_load = comp
     n_mech = 4 if ratio > 0.0 else 2
     a_sub = np.zeros((n_mech, n_mech))
     b_sub = np.zeros(n_mech)
-    if ratio > 0.0:
+    if ratio > 0.0 and on_load:
+        # friction off and B on the load: the exact map of the held actuator force alone
+        # (fricbench.axis.plant.compliance_load_constants), on [x, v, d, d']
+        from fricbench.axis.plant import compliance_load_constants
+
+        cl = np.array(compliance_load_constants(m.mass, ratio, f_r, zeta, h, m.damping))
+        phi, gam, psi, lam = cl[:9].reshape(3, 3), cl[9:12], cl[12:15], cl[15]
+        a_sub[0] = np.concatenate([[1.0], psi])
+        b_sub[0] = lam
+        for j in range(3):
+            a_sub[j + 1] = np.concatenate([[0.0], phi[j]])
+            b_sub[j + 1] = gam[j]
+    elif ratio > 0.0:
         # the substep of fricbench.axis.plant.advance with friction off, on [x, v, d, dv]:
         # v_lin = Phi_v s; v+ = v_lin + h F / m_eff; g = m_eff (v+ - v_lin) / h;
         # x+ = x + Psi s + Lambda g; (d, d')+ = Phi_d s + Gamma_d g   (s = [v, d, d'])

@@ -59,6 +59,18 @@ hold, as the rigid axis is; scipy's ZOH discretisation to 1e-9 in the tests), fo
 (a spring of 100 kHz gives the rigid axis to 1e-10 of the stroke), without numerical damping;
 friction is implicit as on the rigid axis.
 
+With ``compliance_friction_load`` set (1), the friction (every law above, at the load's
+position ``x_M + delta``) and the viscous damping ``B`` (the friction's viscous part) act on
+the load instead: a belt's or a long screw's carriage on its guides, the motor side nearly
+free. The two-mass system with ``B`` on the load is integrated exactly for two forces held
+over the substep, the motor's (actuator, offset, cogging) and the load's friction, which comes
+from the same implicit update applied to the load's velocity with the mass a force held on the
+load accelerates over the substep (:func:`compliance_load_constants`). The friction held over
+a substep stops the load at the substep's ends, so a resonance needs substeps well below its
+period (first order in the substep where the motor side's is exact: the tests'
+stick-slip runs converge to the rigid axis as the coupling stiffens and the substep shrinks).
+A zero load fraction ignores it (the rigid axis).
+
 Backlash between two bodies (off while the load fraction ``r_b`` is 0, the play operator
 above): the motor ``m_M = (1 - r_b) M`` takes the actuator force, the offset and the cogging; the
 load ``m_L = r_b M`` (the table) carries the friction (at its own position); the damping ``B``
@@ -106,8 +118,8 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 (TS, NSUB, M, B, KT, IMAX, DELAY, FKIND, FC, DFC, FS_EXCESS, VS, DELTA, FV, DB, SIGMA0, SIGMA1,
  OFFSET, COG_SIN, COG_COS, COG_PERIOD, PD_GRAD, PD_SIN, PD_COS, PD_PERIOD, PD_CENTER,
  BACKLASH, TH_AMP, TH_TAU, QUANT, NOISE, MEAS_TABLE, COMP_RATIO, COMP_FREQ, COMP_ZETA,
- LOG_MOTOR, TH_VHEAT, BL_LOAD) = range(38)
-N_PLANT = 38
+ LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD) = range(39)
+N_PLANT = 39
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
@@ -115,6 +127,7 @@ PLANT_NAMES = (
     "pd_center", "backlash", "thermal_amplitude", "thermal_tau", "quantization", "noise_std",
     "measure_table", "compliance_load_fraction", "compliance_frequency", "compliance_damping",
     "log_motor", "thermal_heating_speed", "backlash_load_fraction",
+    "compliance_friction_load",
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
@@ -124,6 +137,9 @@ N_PLANT_COMPLIANT = 36
 :func:`pad_row`)."""
 N_PLANT_HEATED = 37
 """Length of the plant row before the two-body backlash (padded by :func:`pad_row`)."""
+N_PLANT_TWO_BODY = 38
+"""Length of the plant row before the compliant axis's friction on the load (padded by
+:func:`pad_row`)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
 S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV, S_HEAT = 0, 1, 2, 3, 4, 5, 6
@@ -171,18 +187,20 @@ def default_row(mass: float = 1.0, damping: float = 0.0, ts: float = 1.0e-3,
 def pad_row(row: np.ndarray) -> np.ndarray:
     """A plant row of the current layout from one of an earlier layout.
 
-    Rows of the rigid layout (32 entries), the compliant one (36) and the one with the heating
-    speed (37) are accepted: the entries added since (compliance, the logged side, the thermal
-    heating speed, the backlash's load fraction) are appended off, so an older row keeps its
-    meaning; a row of the current length is returned as a copy.
+    Rows of the rigid layout (32 entries), the compliant one (36), the one with the heating
+    speed (37) and the one with the two-body backlash (38) are accepted: the entries added
+    since (compliance, the logged side, the thermal heating speed, the backlash's load
+    fraction, the compliant axis's friction on the load) are appended off, so an older row
+    keeps its meaning; a row of the current length is returned as a copy.
     """
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
-    if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED):
-        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_HEATED}, "
-                         f"{N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, got shape "
-                         f"{r.shape}")
+    if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED,
+                                         N_PLANT_TWO_BODY):
+        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_TWO_BODY}, "
+                         f"{N_PLANT_HEATED}, {N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, "
+                         f"got shape {r.shape}")
     out = default_row()
     out[:r.shape[0]] = r
     return out
@@ -240,6 +258,65 @@ def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
         E = E @ E
     return (E[0, 0], E[0, 1], E[0, 2], E[1, 0], E[1, 1], E[1, 2], E[2, 0], E[2, 1], E[2, 2],
             E[0, 4], E[1, 4], E[2, 4], E[3, 0], E[3, 1], E[3, 2], E[3, 4])
+
+
+
+def compliance_load_constants(m_total: float, ratio: float, f_r: float, zeta: float,
+                              h: float, damping: float = 0.0) -> tuple[float, ...]:
+    """Substep constants of the compliant coupling with the friction and the damping on the load.
+
+    The two-mass system with the viscous ``damping`` B on the load (a belt's carriage on its
+    guides: the friction's viscous part) is integrated exactly for two forces held over a
+    substep ``h``: ``g_M`` on the motor (the actuator, the offset, cogging) and ``g_L`` on the
+    load (its friction): with
+    ``s = (v_M, d, d')``, ``s+ = Phi s + Gamma_M g_M + Gamma_L g_L`` and
+    ``x_M+ = x_M + Psi s + Lambda_M g_M + Lambda_L g_L``.
+
+    Returns ``(Phi (row-major, 9), Gamma_M (3), Psi (3), Lambda_M, Gamma_L (3), Lambda_L)``,
+    20 numbers: the first 16 in the order of :func:`compliance_constants`.
+    """
+    m_load = ratio * m_total
+    m_motor = m_total - m_load
+    w_r = 2.0 * math.pi * f_r
+    mu = m_motor * m_load / m_total
+    k = mu * w_r * w_r
+    c = 2.0 * zeta * mu * w_r
+    # w = [v, d, d', int v, g_M, g_L]:  m_M v' = g_M + k d + c d' ;
+    # m_L (v + d')' = g_L - B (v + d') - k d - c d'
+    F = np.zeros((6, 6))
+    F[0, 1] = k / m_motor
+    F[0, 2] = c / m_motor
+    F[0, 4] = 1.0 / m_motor
+    F[1, 2] = 1.0
+    F[2, 0] = -damping / m_load
+    F[2, 1] = -k / m_load - k / m_motor
+    F[2, 2] = -(c + damping) / m_load - c / m_motor
+    F[2, 4] = -1.0 / m_motor
+    F[2, 5] = 1.0 / m_load
+    F[3, 0] = 1.0
+    F = F * h
+    # expm(F h) by scaling and squaring with a Taylor series, as compliance_constants
+    norm = 0.0
+    for i in range(6):
+        row = 0.0
+        for j in range(6):
+            row += abs(F[i, j])
+        norm = max(norm, row)
+    n_sq = 0
+    while norm > 0.25:
+        norm *= 0.5
+        n_sq += 1
+    Fs = F * (0.5 ** n_sq)
+    E = np.eye(6)
+    term = np.eye(6)
+    for n in range(1, 18):
+        term = term @ Fs / n
+        E = E + term
+    for _ in range(n_sq):
+        E = E @ E
+    return (E[0, 0], E[0, 1], E[0, 2], E[1, 0], E[1, 1], E[1, 2], E[2, 0], E[2, 1], E[2, 2],
+            E[0, 4], E[1, 4], E[2, 4], E[3, 0], E[3, 1], E[3, 2], E[3, 4],
+            E[0, 5], E[1, 5], E[2, 5], E[3, 5])
 
 
 class Plant(NamedTuple):
@@ -309,6 +386,14 @@ class Plant(NamedTuple):
     inv_pos_load: float  # 1 / M_eff of the load alone in each direction (its own B and fv)
     inv_neg_load: float
     b_load: float
+    load_fric: bool  # compliant axis: the friction and the damping B on the load
+    gl_v: float  # Gamma_L and Lambda_L of compliance_load_constants
+    gl_d: float
+    gl_r: float
+    xl_g: float
+    m_eff_load: float  # h / Gamma_vL: the mass a force held on the load accelerates
+    inv_pos_cl: float  # 1 / (m_eff_load + h fv_dir) in each direction
+    inv_neg_cl: float
 
 
 def constants(p: np.ndarray) -> Plant:
@@ -325,7 +410,21 @@ def constants(p: np.ndarray) -> Plant:
     m_eff = m
     cc: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, h,
                              0.0, 0.0, 0.0)
-    if comp:
+    # the friction and B on the load instead (a belt's carriage): the load's constants
+    load_fric = comp and p[COMP_LOAD] > 0.5
+    cl: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    m_eff_load = inv_pos_cl = inv_neg_cl = 0.0
+    if load_fric:
+        full = compliance_load_constants(m, p[COMP_RATIO], p[COMP_FREQ], p[COMP_ZETA], h,
+                                         p[B])
+        cc = full[:16]
+        cl = full[16:]
+        m_eff = h / cc[9]
+        # the load velocity v + d' answers a force held on the load with Gamma_v + Gamma_r
+        m_eff_load = h / (cl[0] + cl[2])
+        inv_pos_cl = 1.0 / (m_eff_load + h * max(p[FV] + 0.5 * p[DB], 0.0))
+        inv_neg_cl = 1.0 / (m_eff_load + h * max(p[FV] - 0.5 * p[DB], 0.0))
+    elif comp:
         cc = compliance_constants(m, p[COMP_RATIO], p[COMP_FREQ], p[COMP_ZETA], h, p[B])
         m_eff = h / cc[9]
     # the damping B of the implicit update (inside the exact map of a compliant axis)
@@ -364,7 +463,8 @@ def constants(p: np.ndarray) -> Plant:
                  cc[3], cc[4], cc[5], cc[6], cc[7], cc[8], cc[9], cc[10], cc[11], cc[12],
                  cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5, heat, inv_vheat, th_gain,
                  two_body, m - m_load, p[B] - b_load, m_load, inv_pos_load, inv_neg_load,
-                 b_load)
+                 b_load, load_fric, cl[0], cl[1], cl[2], cl[3], m_eff_load, inv_pos_cl,
+                 inv_neg_cl)
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -496,12 +596,41 @@ def _compliant_substep(c: Plant, x: float, v: float, z: float, d: float, dv: flo
     for ``g`` held over the substep. (A function of its own, not inlined: the rigid substep's
     compiled code, and so its rounding, stays as it was.)
     """
+    if c.load_fric:
+        return _compliant_load_substep(c, x, v, z, d, dv, f_ext)
     v_in = c.p_vv * v + c.p_vd * d + c.p_vdv * dv
     v_new, z, f_fric = _mechanics(c, x, v_in, z, f_ext)
     g = c.m_eff * (v_new - v_in) * (1.0 / c.h)
     x_new = x + c.x_v * v + c.x_d * d + c.x_dv * dv + c.x_g * g
     d_new = c.p_dv * v + c.p_dd * d + c.p_ddv * dv + c.g_d * g
     dv_new = c.p_rv * v + c.p_rd * d + c.p_rdv * dv + c.g_r * g
+    return x_new, v_new, z, d_new, dv_new, f_fric
+
+
+
+def _compliant_load_substep(c: Plant, x: float, v: float, z: float, d: float, dv: float,
+                            f_ext: float) -> tuple[float, float, float, float, float, float]:
+    """One substep of the compliant axis with the friction on the load: ``(x, v, z, d, dv,
+    F_f)``.
+
+    The motor takes ``f_ext`` (actuator, offset, cogging) held over the substep. The load's
+    velocity ``v_L = v + d'`` the free system would reach with it is the implicit update's
+    ``v*``; the load's friction (at the load's position ``x + d``) follows from the mass a
+    force held on the load accelerates, ``m_eff_load = h / Gamma_vL``, stiction and all, as the
+    motor's does on a compliant axis with the friction on the motor; then ``x``, ``v``, ``d``,
+    ``d'`` exactly for both forces held.
+    """
+    h = c.h
+    # the rows of v and d' summed: the load's velocity
+    vl_free = ((c.p_vv + c.p_rv) * v + (c.p_vd + c.p_rd) * d + (c.p_vdv + c.p_rdv) * dv
+               + (c.g_v + c.g_r) * f_ext)
+    vl_new, z, f_fric = _mech(c, x + d, vl_free, z, 0.0, c.m_eff_load, c.inv_pos_cl,
+                              c.inv_neg_cl, 0.0)
+    g_l = c.m_eff_load * (vl_new - vl_free) * (1.0 / h)
+    x_new = x + c.x_v * v + c.x_d * d + c.x_dv * dv + c.x_g * f_ext + c.xl_g * g_l
+    v_new = c.p_vv * v + c.p_vd * d + c.p_vdv * dv + c.g_v * f_ext + c.gl_v * g_l
+    d_new = c.p_dv * v + c.p_dd * d + c.p_ddv * dv + c.g_d * f_ext + c.gl_d * g_l
+    dv_new = c.p_rv * v + c.p_rd * d + c.p_rdv * dv + c.g_r * f_ext + c.gl_r * g_l
     return x_new, v_new, z, d_new, dv_new, f_fric
 
 
@@ -638,6 +767,7 @@ def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray)
 
 
 compliance_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_constants)
+compliance_load_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_load_constants)
 constants = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(constants)
 friction_scale = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(friction_scale)
 levels = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(levels)
@@ -645,6 +775,7 @@ position_force = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(posi
 _mech = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mech)
 _mechanics = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_mechanics)
 actuate = numba.njit(cache=True, inline="always")(actuate)
+_compliant_load_substep = numba.njit(cache=True, fastmath=FASTMATH)(_compliant_load_substep)
 _compliant_substep = numba.njit(cache=True, fastmath=FASTMATH)(_compliant_substep)
 _two_body_substep = numba.njit(cache=True, fastmath=FASTMATH)(_two_body_substep)
 advance = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(advance)
@@ -681,14 +812,16 @@ def sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray) -> np.ndarray:
 __all__ = [
     "DELAY_MAX", "FASTMATH", "N_PLANT", "N_PLANT_COMPLIANT", "N_PLANT_RIGID", "N_PLANT_STATE",
     "PLANT_NAMES", "Plant",
-    "actuate", "advance", "compliance_constants", "constants", "default_row", "friction_scale",
+    "actuate", "advance", "compliance_constants", "compliance_load_constants", "constants",
+    "default_row", "friction_scale",
     "levels", "load_position", "pad_row", "position_force", "sense", "sliding_force",
     "thermal_drift",
     "TS", "NSUB", "M", "B", "KT", "IMAX", "DELAY", "FKIND", "FC", "DFC", "FS_EXCESS", "VS",
     "DELTA", "FV", "DB", "SIGMA0", "SIGMA1", "OFFSET", "COG_SIN", "COG_COS", "COG_PERIOD",
     "PD_GRAD", "PD_SIN", "PD_COS", "PD_PERIOD", "PD_CENTER", "BACKLASH", "TH_AMP", "TH_TAU",
     "QUANT", "NOISE", "MEAS_TABLE", "COMP_RATIO", "COMP_FREQ", "COMP_ZETA", "LOG_MOTOR",
-    "TH_VHEAT", "BL_LOAD", "N_PLANT_HEATED", "S_X", "S_V", "S_XPLAY", "S_Z", "S_DEF", "S_DEFV",
+    "TH_VHEAT", "BL_LOAD", "COMP_LOAD", "N_PLANT_HEATED", "N_PLANT_TWO_BODY", "S_X", "S_V",
+    "S_XPLAY", "S_Z", "S_DEF", "S_DEFV",
     "S_HEAT", "KIND_STATIC",
     "KIND_LUGRE", "KIND_DAHL",
 ]

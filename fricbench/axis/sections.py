@@ -199,6 +199,12 @@ class Effects:
         (``mu = m_M m_L / M``; the motor side's anti-resonance is ``f_r sqrt(1 - r)``).
     compliance_damping : float
         Damping ratio ``zeta`` of that resonance (``c = 2 zeta mu 2 pi f_r``), 0 .. 2.
+    compliance_friction : str
+        Where a compliant axis's friction and viscous damping ``B`` act: ``"motor"`` (the
+        default: screw bearings, nut and motor, the usual reduction of a ball-screw axis) or
+        ``"load"`` (a belt's or a long screw's carriage on its guides; the friction at the
+        load's position). The actuator force, the load force and the cogging stay on the
+        motor.
     backlash_load_fraction : float
         Two bodies across the backlash gap: the share ``r = m_L / M`` of the mass that is the
         load (table). The friction acts on the load; the damping is split as the mass is;
@@ -231,6 +237,7 @@ class Effects:
     compliance_frequency: float = 50.0
     compliance_damping: float = 0.05
     backlash_load_fraction: float = 0.0
+    compliance_friction: str = "motor"
 
     def __post_init__(self) -> None:
         check_range("backlash", self.backlash, 0.0, 1e-3, "m")
@@ -256,6 +263,7 @@ class Effects:
         check_range("compliance_frequency", self.compliance_frequency, 0.1, 1.0e5, "Hz")
         check_range("compliance_damping", self.compliance_damping, 0.0, 2.0)
         check_range("backlash_load_fraction", self.backlash_load_fraction, 0.0, 0.95)
+        check_choice("compliance_friction", self.compliance_friction, ("motor", "load"))
         if self.backlash_load_fraction > 0.0 and self.compliance_load_fraction > 0.0:
             raise ValueError(
                 f"backlash_load_fraction={self.backlash_load_fraction:g} with "

@@ -112,7 +112,7 @@ def test_effects_off_by_default() -> None:
         if f.name in ("measurement",):
             assert e.measurement == "motor"
         elif f.name.endswith(("period", "phase", "time_constant", "compliance_frequency",
-                              "compliance_damping")):
+                              "compliance_damping", "compliance_friction")):
             # shapes of an effect whose size is off (compliance: the load fraction)
             continue
         else:

@@ -53,14 +53,17 @@ def test_compliance_off_is_the_rigid_axis_bit_for_bit(s_curve) -> None:
     assert sampled_closed_loop(base).nstates == sampled_closed_loop(off).nstates
 
 
+@pytest.mark.parametrize("side", ["motor", "load"])
 @pytest.mark.parametrize("measurement", ["motor", "table"])
-def test_sampled_closed_loop_is_the_kernel_with_compliance(s_curve, measurement: str) -> None:
+def test_sampled_closed_loop_is_the_kernel_with_compliance(s_curve, measurement: str,
+                                                           side: str) -> None:
     """Friction off, the stability check's loop is the compliant kernel's own map (its output
-    is the fed-back side: logged here from the same side)."""
+    is the fed-back side: logged here from the same side), the damping on either body."""
     # a soft loop (the full-closed loop of a compliant axis needs low gains)
     axis = Axis.from_dict({"controller": {"kp": 5.0, "kv": 10.0, "ti": 0.3}}).without_friction(
         ).with_effects(compliance_load_fraction=0.4, compliance_frequency=35.0,
-                       compliance_damping=0.05, measurement=measurement)
+                       compliance_damping=0.05, measurement=measurement,
+                       compliance_friction=side)
     batch = AxisBatch(axis)
     batch.P[:, K.P_LOG_MOTOR] = 1.0 if measurement == "motor" else 0.0
     batch.reset(s_curve.x[0])
@@ -132,6 +135,78 @@ def test_linear_two_mass_is_exact_for_a_held_force() -> None:
         assert np.max(np.abs(motor - y[:, 1])) < 1e-9 * scale
 
 
+def test_friction_side_on_the_load_is_exact_for_a_held_force() -> None:
+    """Friction off, the friction's side on the load (the damping B with it): the
+    zero-order-hold discretisation of the two-mass ODE with B on the load (scipy's), to
+    rounding, at one substep per sample."""
+    from scipy.signal import cont2discrete, dlsim
+
+    rng = np.random.default_rng(11)
+    ts, n = 1e-3, 3000
+    for _ in range(3):
+        mass, ratio = rng.uniform(1.0, 500.0), rng.uniform(0.1, 0.8)
+        f_r, zeta, damp = rng.uniform(10.0, 300.0), rng.uniform(0.0, 0.1), rng.uniform(0.1, 5)
+        row = _row(mass, ratio, f_r, zeta, ts, 1)
+        row[PL.B] = damp * mass
+        row[PL.COMP_LOAD] = 1.0
+        force = mass * rng.standard_normal(n)
+        table, motor = _open_loop(row, force, ts, 1)
+        m_l = ratio * mass
+        m_m = mass - m_l
+        mu = m_m * m_l / mass
+        w = 2 * np.pi * f_r
+        k, c, bl = mu * w * w, 2 * zeta * mu * w, damp * mass
+        a = np.array([[0, 1, 0, 0], [-k / m_m, -c / m_m, k / m_m, c / m_m],
+                      [0, 0, 0, 1], [k / m_l, c / m_l, -k / m_l, -(c + bl) / m_l]])
+        b = np.array([[0.0], [1.0 / m_m], [0.0], [0.0]])
+        cm = np.array([[0.0, 0, 1, 0], [1, 0, 0, 0]])
+        ad, bd, cd, dd, _ = cont2discrete((a, b, cm, np.zeros((2, 1))), ts, "zoh")
+        _, y, _ = dlsim((ad, bd, cd, dd, ts), force)
+        scale = np.ptp(y[:, 0])
+        assert np.max(np.abs(table - y[:, 0])) < 1e-9 * scale
+        assert np.max(np.abs(motor - y[:, 1])) < 1e-9 * scale
+
+
+def _friction_row(ratio: float, f_r: float, n_sub: int, side: float) -> np.ndarray:
+    p = _row(10.0, ratio, f_r, 0.05, 1e-3, n_sub)
+    p[PL.B], p[PL.FC], p[PL.FS_EXCESS], p[PL.VS] = 20.0, 60.0, 20.0, 0.01
+    p[PL.COMP_LOAD] = side
+    return p
+
+
+def test_friction_on_the_load_tends_to_the_rigid_axis() -> None:
+    """Stick-slip with the friction on the load: a stiffer coupling (its resonance resolved by
+    the substeps) gives the rigid axis with the same friction, as the motor side's does."""
+    ts, n = 1e-3, 3000
+    force = 100.0 * np.sin(2 * np.pi * 3.0 * np.arange(n) * ts)
+    rigid, _ = _open_loop(_friction_row(0.0, 50.0, 5, 0.0), force, ts, 5)
+    assert np.mean(np.diff(rigid) == 0.0) > 0.1  # it sticks
+    gaps = []
+    for f_r, n_sub in ((30.0, 5), (300.0, 50), (3000.0, 500)):
+        table, motor = _open_loop(_friction_row(0.5, f_r, n_sub, 1.0), force, ts, n_sub)
+        gaps.append(max(np.max(np.abs(table - rigid)), np.max(np.abs(motor - rigid))))
+    assert all(g2 < 0.3 * g1 for g1, g2 in zip(gaps, gaps[1:], strict=False)), gaps
+    assert gaps[-1] < 2e-3 * np.ptp(rigid), gaps
+
+
+def test_friction_on_the_load_holds_the_load() -> None:
+    """A force below the breakaway level, on a compliant axis with the friction on the load:
+    the load stays where it is (to 1e-3 of the deflection), the motor settles at the spring's
+    deflection ``F / k``; with the friction on the motor, nothing moves."""
+    ts, n = 1e-3, 3000
+    force = np.full(n, 40.0)  # below fc = 60 N
+    ratio, f_r = 0.5, 30.0
+    table, motor = _open_loop(_friction_row(ratio, f_r, 5, 1.0), force, ts, 5)
+    mu = 0.5 * 10.0 * 0.5
+    k = mu * (2 * np.pi * f_r) ** 2
+    # the load's velocity is 0 at the end of every substep; within one, the held friction
+    # lets it sway by a fraction of the spring's own motion (1e-4 of it here)
+    assert np.max(np.abs(table - table[0])) < 1e-3 * 40.0 / k
+    assert abs((motor[-1] - table[-1]) - 40.0 / k) < 1e-3 * 40.0 / k
+    table, motor = _open_loop(_friction_row(ratio, f_r, 5, 0.0), force, ts, 5)
+    assert np.all(table == table[0]) and np.all(motor == motor[0])
+
+
 def test_compliance_is_validated() -> None:
     with pytest.raises(ValueError, match=r"compliance_load_fraction=1.2: expected a value in"):
         Axis().with_effects(compliance_load_fraction=1.2)
@@ -139,6 +214,8 @@ def test_compliance_is_validated() -> None:
         Axis().with_effects(compliance_frequency=0.0)
     with pytest.raises(ValueError, match=r"compliance_damping=-0.1"):
         Axis().with_effects(compliance_damping=-0.1)
+    with pytest.raises(ValueError, match=r"compliance_friction='table': expected one of"):
+        Axis().with_effects(compliance_friction="table")
 
 
 def test_unstable_full_closed_loop_is_refused_naming_the_compliance() -> None:
@@ -154,6 +231,11 @@ def test_axis_spec_carries_compliance() -> None:
     axis = Axis.from_dict(spec)
     p = axis.pack()
     assert (p[PL.COMP_RATIO], p[PL.COMP_FREQ], p[PL.COMP_ZETA]) == (0.3, 60.0, 0.02)
+    assert p[PL.COMP_LOAD] == 0.0
+    on_load = Axis.from_dict(Axis().with_effects(
+        compliance_load_fraction=0.3, compliance_friction="load").to_dict())
+    assert on_load.effects.compliance_friction == "load"
+    assert on_load.pack()[PL.COMP_LOAD] == 1.0
 
 
 def test_rigid_rows_are_padded() -> None:

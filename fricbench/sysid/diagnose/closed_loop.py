@@ -34,7 +34,8 @@ __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_
            "I_M", "I_B", "I_FC", "I_DFC", "I_DB", "I_FS", "I_VS", "I_OFF", "I_COGA", "I_COGB",
            "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_THV",
            "I_IMAX", "I_DELAY",
-           "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR", "I_BL_LOAD"]
+           "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR", "I_BL_LOAD",
+           "I_COMP_LOAD"]
 
 # -- the plant entries the diagnosis fits (indices into the plant row) --------------------------
 I_M, I_B, I_FC, I_DFC, I_DB = PL.M, PL.B, PL.FC, PL.DFC, PL.DB
@@ -44,6 +45,7 @@ I_PDG, I_PDA, I_PDB, I_PDP, I_XC = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIO
 I_BL, I_THA, I_THT, I_THV = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.TH_VHEAT
 I_IMAX, I_DELAY = PL.IMAX, PL.DELAY
 I_BL_LOAD = PL.BL_LOAD
+I_COMP_LOAD = PL.COMP_LOAD
 I_CR, I_CF, I_CZ = PL.COMP_RATIO, PL.COMP_FREQ, PL.COMP_ZETA
 I_MEAS_TABLE, I_LOG_MOTOR = PL.MEAS_TABLE, PL.LOG_MOTOR
 

@@ -95,6 +95,7 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "log_motor": "the logged side: an env observes the load (table) position",
     "thermal_heating_speed": ("effects", "thermal_heating_speed", ""),
     "backlash_load_fraction": ("effects", "backlash_load_fraction", ""),
+    "compliance_friction_load": ("effects", "compliance_friction", ""),
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -108,7 +109,8 @@ _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_
               "delta": ("fs_excess",), "pd_center": ("pd_gradient",),
               "compliance_frequency": ("compliance_load_fraction",),
               "compliance_damping": ("compliance_load_fraction",),
-              "backlash_load_fraction": ("backlash",)}
+              "backlash_load_fraction": ("backlash",),
+              "compliance_friction_load": ("compliance_load_fraction",)}
 
 class TwinError(ValueError):
     """The diagnosis cannot be written as an env (the message names why)."""
@@ -207,6 +209,8 @@ def _axis_tables(p: np.ndarray, gain: float) -> dict[str, dict[str, Any]]:
             out[section][key] = float(si[PL.FC]) * gain + value
         elif name == "measure_table":
             out[section][key] = "table" if value > 0.5 else "motor"
+        elif name == "compliance_friction_load":
+            out[section][key] = "load" if value > 0.5 else "motor"
         elif name == "delay_samples":
             out[section][key] = int(value)
         else:
