@@ -37,6 +37,7 @@ import numpy as np
 
 from fricbench.run import Run, validate_run_arrays
 from fricbench.run_events import hysteresis_sign, motion_events, sign_reversals
+from fricbench.sysid.ticks import latched_times, roughness, tick_lattice
 from fricbench.units import position_unit as _position_unit
 
 __all__ = ["DataError", "RunData", "load_run", "validate_arrays", "MIN_SAMPLES",
@@ -121,6 +122,57 @@ def _effort_problem(u: np.ndarray, name: str | None, where: Callable[[int], str]
     return None
 
 
+def _latch_instants(t: np.ndarray, columns: dict[str, object | None]
+                    ) -> tuple[dict[str, np.ndarray], str]:
+    """The instants each position column of a jittered log belongs to, and the words that say
+    so (empty when every column stays at its stamps).
+
+    A PC logger reading a drive gets the values the drive latched at its last loop tick: the
+    reference, a planned trajectory without noise of its own, shows that lattice of ticks
+    (:func:`fricbench.sysid.ticks.tick_lattice`). A column is read at its ticks (the last one at
+    or before each stamp) when its readings lie on them more smoothly than on their stamps
+    (:func:`fricbench.sysid.ticks.roughness`): the reference first, then each position, which a
+    logger may read from the drive (latched) or from the sensor at the stamp. The effort stays
+    at its stamps: its own noise leaves no such comparison. Interpolated at the stamps, a
+    latched reference is off by its speed times a reading's age, uniform over a loop period:
+    scatter the model's loop follows as the drive's never did."""
+    times: dict[str, np.ndarray] = {}
+    ref = columns.get("x_ref")
+    if ref is None:
+        return times, ""
+    r = np.asarray(ref, dtype=float)
+    if r.shape != t.shape or not np.all(np.isfinite(r)):
+        return times, ""
+    lattice = tick_lattice(t, r)
+    if lattice is None:
+        return times, ""
+    tau = latched_times(t, lattice)
+    at_stamps, at_ticks = roughness(t, r), roughness(tau, r)
+    if not at_ticks < at_stamps:
+        return times, ""
+    times["x_ref"] = tau
+    moved = ["reference"]
+    for key, name in (("x", "position"), ("x_load", "load position")):
+        col = columns.get(key)
+        if col is None:
+            continue
+        a = np.asarray(col, dtype=float)
+        if a.shape == t.shape and np.all(np.isfinite(a)) and roughness(tau, a) < roughness(t, a):
+            times[key] = tau
+            moved.append(name)
+    kept = [name for key, name in (("x", "position"), ("x_load", "load position"))
+            if columns.get(key) is not None and key not in times]
+    smoother = at_stamps / at_ticks if at_ticks > 0.0 else math.inf
+    note = (f"; the {' and '.join(moved)} as the drive latched {'them' if len(moved) > 1 else 'it'}"
+            f" at its loop ticks, a lattice of {1e6 * lattice.period:.4g} us found in the "
+            f"reference's readings (on it they lie {smoother:.3g} times more smoothly, in squared "
+            "error, than on their stamps): each reading placed at the last tick before its "
+            "stamp")
+    if kept:
+        note += f"; the {' and '.join(kept)} at {'their' if len(kept) > 1 else 'its'} stamps"
+    return times, note
+
+
 def _resample_jitter(t: object, x_ref: object, x: object, u: object | None,
                      x_load: object | None, line_numbers: np.ndarray | None, t_name: str,
                      source: str) -> tuple[Any, Any, Any, Any, Any, np.ndarray | None, str]:
@@ -149,21 +201,23 @@ def _resample_jitter(t: object, x_ref: object, x: object, u: object | None,
                 "a dropped or doubled sample; cut the run there or resample it first")
         return t, x_ref, x, u, x_load, line_numbers, ""
     grid = tt[0] + ts * np.arange(int(np.floor((tt[-1] - tt[0]) / ts + 1e-9)) + 1)
+    times, ticks_note = _latch_instants(tt, {"x_ref": x_ref, "x": x, "x_load": x_load})
 
-    def on_grid(a: object | None) -> np.ndarray | None:
+    def on_grid(a: object | None, key: str | None = None) -> np.ndarray | None:
         if a is None:
             return None
         arr = np.asarray(a, dtype=float)
         if arr.shape != tt.shape:  # the checks name the length mismatch
             return arr
-        return np.interp(grid, tt, arr)
+        return np.interp(grid, times.get(key, tt) if key else tt, arr)
 
     n_jit = int(np.sum(np.abs(dt - ts) / ts > TIME_JITTER_TOLERANCE))
     why = (f"{source + ': ' if source else ''}column {t_name!r}: the time steps jitter by up to "
            f"{100 * dev:.3g} % of their median {ts:.6g} s ({n_jit} of {dt.size} steps beyond "
            f"{100 * TIME_JITTER_TOLERANCE:g} %): the run was resampled to that step by linear "
-           f"interpolation ({tt.size} -> {grid.size} samples)")
-    return (grid, on_grid(x_ref), on_grid(x), on_grid(u), on_grid(x_load), None, why)
+           f"interpolation ({tt.size} -> {grid.size} samples){ticks_note}")
+    return (grid, on_grid(x_ref, "x_ref"), on_grid(x, "x"), on_grid(u),
+            on_grid(x_load, "x_load"), None, why)
 
 
 def validate_arrays(t: np.ndarray, x_ref: np.ndarray, x: np.ndarray, u: np.ndarray | None = None,

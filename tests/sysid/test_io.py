@@ -112,6 +112,31 @@ def test_jittered_timestamps_are_resampled_with_a_warning():
     assert "jitter by up to" in warning and "%" in warning
 
 
+def test_a_reference_latched_at_the_drives_ticks_is_read_at_them():
+    # a drive's 2 kHz loop read by a PC every ~3 ms at jittered instants: the reference is the
+    # one of the drive's last tick (up to 0.5 ms old), the position the sensor's at the stamp
+    loop, n = 5e-4, 2000
+    rng = np.random.default_rng(2)
+    t = np.arange(n) * 6 * loop + rng.uniform(-0.6 * loop, 0.6 * loop, n) * (np.arange(n) > 0)
+
+    def plan(tt):
+        return 0.05 * np.sin(2 * np.pi * 0.7 * tt) + 0.02 * np.sin(2 * np.pi * 1.9 * tt)
+
+    latched = plan(loop * np.floor(t / loop + 1e-9))
+    run = validate_arrays(t, latched, plan(t) - 1e-5)
+    # the reference on the grid is its readings at their ticks (linear between them), not the
+    # readings interpolated at their stamps (off by the speed times up to 0.5 ms)
+    ticks = loop * np.floor(t / loop + 1e-9)
+    at_ticks = np.interp(run.t, ticks, latched)
+    err = np.sqrt(np.mean((run.x_ref - at_ticks) ** 2))
+    stamped = np.interp(run.t, t, latched)
+    assert err < 0.1 * np.sqrt(np.mean((stamped - at_ticks) ** 2))
+    # the position was read at its stamps and stays there
+    assert np.max(np.abs(run.x - (np.interp(run.t, t, plan(t)) - 1e-5))) < 1e-12
+    warning = next(w for w in run.warnings if "resampled" in w)
+    assert "loop ticks" in warning and "500 us" in warning and "position at its stamps" in warning
+
+
 def test_small_jitter_is_accepted():
     n = 400
     t = np.arange(n) * 1e-3 + np.random.default_rng(0).uniform(-3e-8, 3e-8, n)
