@@ -121,20 +121,14 @@ def tick_lattice(t: np.ndarray, y: np.ndarray) -> TickLattice | None:
     n_f = int(math.ceil((f_hi - f_lo) * 36.0 * step)) + 1
     f, spec = _spectrum(d[keep], wd[keep], f_lo, f_hi, n_f, 1.0 / (32.0 * f_hi))
     f0 = float(f[int(np.argmax(spec))])
-    df = (f_hi - f_lo) / (n_f - 1)
-    # fine: one lattice over the whole run (spacing an eighth of a cycle over the run), on the
-    # readings that tell most (a budget of 4096: the span, which sets the precision, is kept)
-    good = np.flatnonzero(w > 0.0)
-    if good.size > 4096:
-        good = np.sort(good[np.argsort(w[good])[-4096:]])
-    n_fine = int(math.ceil(2.0 * df * 8.0 * span)) + 1
-    f = np.linspace(max(f0 - df, 0.5 * f0), f0 + df, n_fine)
-    lg, wg = latch[good] - latch[good][0], w[good]
-    spec = np.empty(n_fine)
-    for a in range(0, n_fine, 256):
-        spec[a:a + 256] = np.abs(np.exp(-2j * np.pi * np.outer(f[a:a + 256], lg)) @ wg)
+    # fine: one lattice over the whole run, searched over the coarse line's main lobe (half a
+    # cycle per row off it: +-1/(2 step)) at a quarter of a cycle over the run
+    good = w > 0.0
+    lo, hi = max(f0 - 0.5 / step, 0.5 * f0), f0 + 0.5 / step
+    n_fine = int(math.ceil((hi - lo) * 4.0 * span)) + 1
+    f, spec = _spectrum(latch[good], w[good], lo, hi, n_fine, 1.0 / (32.0 * hi))
     period = 1.0 / float(f[int(np.argmax(spec))])
-    # the period to within a drift of 1/16 tick over the run; a reading's latch instant is
+    # the period to within a drift of 1/8 tick over the run; a reading's latch instant is
     # only estimated (the spline's own lag varies with the motion), so period and phase are
     # settled on what matters, the smoothness of the readings at their ticks: periods drifting
     # by up to 1/8 tick over the run in steps of 1/64, phases on a grid of 64 about the run's
