@@ -126,7 +126,13 @@ def tick_lattice(t: np.ndarray, y: np.ndarray) -> TickLattice | None:
     good = w > 0.0
     lo, hi = max(f0 - 0.5 / step, 0.5 * f0), f0 + 0.5 / step
     n_fine = int(math.ceil((hi - lo) * 4.0 * span)) + 1
-    f, spec = _spectrum(latch[good], w[good], lo, hi, n_fine, 1.0 / (32.0 * hi))
+    # bins of 1/16 tick (the binning turns a phase by at most 1/32 of a cycle); a memory
+    # budget of 2^22 bins (262144 ticks: 131 s of a 2 kHz loop) beyond which the run is left
+    # at its stamps
+    lgood = latch[good]
+    if (float(np.ptp(lgood)) + 3.0 * step) * 16.0 * hi > 2.0**22:
+        return None
+    f, spec = _spectrum(lgood, w[good], lo, hi, n_fine, 1.0 / (16.0 * hi))
     period = 1.0 / float(f[int(np.argmax(spec))])
     # the period to within a drift of 1/8 tick over the run; a reading's latch instant is
     # only estimated (the spline's own lag varies with the motion), so period and phase are
