@@ -206,6 +206,32 @@ def pad_row(row: np.ndarray) -> np.ndarray:
     return out
 
 
+def _expm(F: np.ndarray) -> np.ndarray:
+    """``expm(F)`` by scaling and squaring with a Taylor series (1e-16 accurate once scaled):
+    the compliant substep's exact map, once per plant row (scipy's expm is not callable from
+    compiled code)."""
+    n_dim = F.shape[0]
+    norm = 0.0
+    for i in range(n_dim):
+        row = 0.0
+        for j in range(n_dim):
+            row += abs(F[i, j])
+        norm = max(norm, row)
+    n_sq = 0
+    while norm > 0.25:
+        norm *= 0.5
+        n_sq += 1
+    Fs = F * (0.5 ** n_sq)
+    E = np.eye(n_dim)
+    term = np.eye(n_dim)
+    for n in range(1, 18):
+        term = term @ Fs / n
+        E = E + term
+    for _ in range(n_sq):
+        E = E @ E
+    return E
+
+
 def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
                          h: float, damping: float = 0.0) -> tuple[float, ...]:
     """Substep constants of the compliant coupling (see the module docstring).
@@ -236,26 +262,7 @@ def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
     F[2, 2] = -c / m_load - c / m_motor
     F[2, 4] = -1.0 / m_motor
     F[3, 0] = 1.0
-    F = F * h
-    # expm(F h) by scaling and squaring with a Taylor series (1e-16 accurate once scaled)
-    norm = 0.0
-    for i in range(5):
-        row = 0.0
-        for j in range(5):
-            row += abs(F[i, j])
-        norm = max(norm, row)
-    n_sq = 0
-    while norm > 0.25:
-        norm *= 0.5
-        n_sq += 1
-    Fs = F * (0.5 ** n_sq)
-    E = np.eye(5)
-    term = np.eye(5)
-    for n in range(1, 18):
-        term = term @ Fs / n
-        E = E + term
-    for _ in range(n_sq):
-        E = E @ E
+    E = _expm(F * h)
     return (E[0, 0], E[0, 1], E[0, 2], E[1, 0], E[1, 1], E[1, 2], E[2, 0], E[2, 1], E[2, 2],
             E[0, 4], E[1, 4], E[2, 4], E[3, 0], E[3, 1], E[3, 2], E[3, 4])
 
@@ -294,26 +301,7 @@ def compliance_load_constants(m_total: float, ratio: float, f_r: float, zeta: fl
     F[2, 4] = -1.0 / m_motor
     F[2, 5] = 1.0 / m_load
     F[3, 0] = 1.0
-    F = F * h
-    # expm(F h) by scaling and squaring with a Taylor series, as compliance_constants
-    norm = 0.0
-    for i in range(6):
-        row = 0.0
-        for j in range(6):
-            row += abs(F[i, j])
-        norm = max(norm, row)
-    n_sq = 0
-    while norm > 0.25:
-        norm *= 0.5
-        n_sq += 1
-    Fs = F * (0.5 ** n_sq)
-    E = np.eye(6)
-    term = np.eye(6)
-    for n in range(1, 18):
-        term = term @ Fs / n
-        E = E + term
-    for _ in range(n_sq):
-        E = E @ E
+    E = _expm(F * h)
     return (E[0, 0], E[0, 1], E[0, 2], E[1, 0], E[1, 1], E[1, 2], E[2, 0], E[2, 1], E[2, 2],
             E[0, 4], E[1, 4], E[2, 4], E[3, 0], E[3, 1], E[3, 2], E[3, 4],
             E[0, 5], E[1, 5], E[2, 5], E[3, 5])
@@ -766,6 +754,7 @@ def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray)
         out[k] = f
 
 
+_expm = numba.njit(cache=True, fastmath=FASTMATH)(_expm)
 compliance_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_constants)
 compliance_load_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_load_constants)
 constants = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(constants)

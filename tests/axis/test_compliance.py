@@ -108,15 +108,24 @@ def test_resonance_matches_the_formula() -> None:
 def test_linear_two_mass_is_exact_for_a_held_force() -> None:
     """Friction off, the compliant plant is the zero-order-hold discretisation of the
     two-mass ODE (scipy's), to rounding, at one substep per sample."""
+    _check_held_force_zoh(side=0.0, seed=7, damping_low=0.0)
+
+
+def _check_held_force_zoh(side: float, seed: int, damping_low: float) -> None:
+    """The open-loop compliant plant, friction off, the friction's side ``side`` (the damping
+    B with it), against scipy's zero-order-hold discretisation of the two-mass ODE, to 1e-9
+    of the motion, at one substep per sample (three random axes)."""
     from scipy.signal import cont2discrete, dlsim
 
-    rng = np.random.default_rng(7)
+    rng = np.random.default_rng(seed)
     ts, n = 1e-3, 3000
     for _ in range(3):
         mass, ratio = rng.uniform(1.0, 500.0), rng.uniform(0.1, 0.8)
-        f_r, zeta, damp = rng.uniform(10.0, 300.0), rng.uniform(0.0, 0.1), rng.uniform(0, 5)
+        f_r, zeta = rng.uniform(10.0, 300.0), rng.uniform(0.0, 0.1)
+        damp = rng.uniform(damping_low, 5)
         row = _row(mass, ratio, f_r, zeta, ts, 1)
         row[PL.B] = damp * mass
+        row[PL.COMP_LOAD] = side
         force = mass * rng.standard_normal(n)
         table, motor = _open_loop(row, force, ts, 1)
         m_l = ratio * mass
@@ -124,8 +133,9 @@ def test_linear_two_mass_is_exact_for_a_held_force() -> None:
         mu = m_m * m_l / mass
         w = 2 * np.pi * f_r
         k, c = mu * w * w, 2 * zeta * mu * w
-        a = np.array([[0, 1, 0, 0], [-k / m_m, -(c + damp * mass) / m_m, k / m_m, c / m_m],
-                      [0, 0, 0, 1], [k / m_l, c / m_l, -k / m_l, -c / m_l]])
+        b_m, b_l = (0.0, damp * mass) if side else (damp * mass, 0.0)
+        a = np.array([[0, 1, 0, 0], [-k / m_m, -(c + b_m) / m_m, k / m_m, c / m_m],
+                      [0, 0, 0, 1], [k / m_l, c / m_l, -k / m_l, -(c + b_l) / m_l]])
         b = np.array([[0.0], [1.0 / m_m], [0.0], [0.0]])
         cm = np.array([[0.0, 0, 1, 0], [1, 0, 0, 0]])
         ad, bd, cd, dd, _ = cont2discrete((a, b, cm, np.zeros((2, 1))), ts, "zoh")
@@ -139,32 +149,7 @@ def test_friction_side_on_the_load_is_exact_for_a_held_force() -> None:
     """Friction off, the friction's side on the load (the damping B with it): the
     zero-order-hold discretisation of the two-mass ODE with B on the load (scipy's), to
     rounding, at one substep per sample."""
-    from scipy.signal import cont2discrete, dlsim
-
-    rng = np.random.default_rng(11)
-    ts, n = 1e-3, 3000
-    for _ in range(3):
-        mass, ratio = rng.uniform(1.0, 500.0), rng.uniform(0.1, 0.8)
-        f_r, zeta, damp = rng.uniform(10.0, 300.0), rng.uniform(0.0, 0.1), rng.uniform(0.1, 5)
-        row = _row(mass, ratio, f_r, zeta, ts, 1)
-        row[PL.B] = damp * mass
-        row[PL.COMP_LOAD] = 1.0
-        force = mass * rng.standard_normal(n)
-        table, motor = _open_loop(row, force, ts, 1)
-        m_l = ratio * mass
-        m_m = mass - m_l
-        mu = m_m * m_l / mass
-        w = 2 * np.pi * f_r
-        k, c, bl = mu * w * w, 2 * zeta * mu * w, damp * mass
-        a = np.array([[0, 1, 0, 0], [-k / m_m, -c / m_m, k / m_m, c / m_m],
-                      [0, 0, 0, 1], [k / m_l, c / m_l, -k / m_l, -(c + bl) / m_l]])
-        b = np.array([[0.0], [1.0 / m_m], [0.0], [0.0]])
-        cm = np.array([[0.0, 0, 1, 0], [1, 0, 0, 0]])
-        ad, bd, cd, dd, _ = cont2discrete((a, b, cm, np.zeros((2, 1))), ts, "zoh")
-        _, y, _ = dlsim((ad, bd, cd, dd, ts), force)
-        scale = np.ptp(y[:, 0])
-        assert np.max(np.abs(table - y[:, 0])) < 1e-9 * scale
-        assert np.max(np.abs(motor - y[:, 1])) < 1e-9 * scale
+    _check_held_force_zoh(side=1.0, seed=11, damping_low=0.1)
 
 
 def _friction_row(ratio: float, f_r: float, n_sub: int, side: float) -> np.ndarray:
