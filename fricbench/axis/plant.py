@@ -206,6 +206,17 @@ def pad_row(row: np.ndarray) -> np.ndarray:
     return out
 
 
+def _coupling(m_total: float, ratio: float, f_r: float,
+              zeta: float) -> tuple[float, float, float, float]:
+    """The two masses, the spring ``k = mu w_r^2`` and the damper ``c = 2 zeta mu w_r`` of a
+    compliant axis (``mu = m_M m_L / M``)."""
+    m_load = ratio * m_total
+    m_motor = m_total - m_load
+    w_r = 2.0 * math.pi * f_r
+    mu = m_motor * m_load / m_total
+    return m_motor, m_load, mu * w_r * w_r, 2.0 * zeta * mu * w_r
+
+
 def _expm(F: np.ndarray) -> np.ndarray:
     """``expm(F)`` by scaling and squaring with a Taylor series (1e-16 accurate once scaled):
     the compliant substep's exact map, once per plant row (scipy's expm is not callable from
@@ -243,13 +254,7 @@ def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
 
     Returns ``(Phi (row-major, 9), Gamma (3), Psi (3), Lambda)``, 16 numbers.
     """
-    m_load = ratio * m_total
-    m_motor = m_total - m_load
-    w_r = 2.0 * math.pi * f_r
-    mu = m_motor * m_load / m_total
-    # k = mu w_r^2, c = 2 zeta mu w_r
-    k = mu * w_r * w_r
-    c = 2.0 * zeta * mu * w_r
+    m_motor, m_load, k, c = _coupling(m_total, ratio, f_r, zeta)
     # w = [v, d, d', int v, g]:  m_M v' = g - B v + k d + c d' ;  d'' = -(k d + c d') / m_L - v'
     F = np.zeros((5, 5))
     F[0, 0] = -damping / m_motor
@@ -282,12 +287,7 @@ def compliance_load_constants(m_total: float, ratio: float, f_r: float, zeta: fl
     Returns ``(Phi (row-major, 9), Gamma_M (3), Psi (3), Lambda_M, Gamma_L (3), Lambda_L)``,
     20 numbers: the first 16 in the order of :func:`compliance_constants`.
     """
-    m_load = ratio * m_total
-    m_motor = m_total - m_load
-    w_r = 2.0 * math.pi * f_r
-    mu = m_motor * m_load / m_total
-    k = mu * w_r * w_r
-    c = 2.0 * zeta * mu * w_r
+    m_motor, m_load, k, c = _coupling(m_total, ratio, f_r, zeta)
     # w = [v, d, d', int v, g_M, g_L]:  m_M v' = g_M + k d + c d' ;
     # m_L (v + d')' = g_L - B (v + d') - k d - c d'
     F = np.zeros((6, 6))
@@ -754,6 +754,7 @@ def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray)
         out[k] = f
 
 
+_coupling = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(_coupling)
 _expm = numba.njit(cache=True, fastmath=FASTMATH)(_expm)
 compliance_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_constants)
 compliance_load_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_load_constants)
