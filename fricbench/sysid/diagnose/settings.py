@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 52 today; the one-method issue's target is at most 15.**
+**Tuned values: 53 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -387,6 +387,9 @@ class DiagnoseSettings:
         for a log-scaled one) ended on it: the trust-region solver keeps its iterates inside
         the box. Tuned on the second simulator's tuning seeds (1e-4, then 1e-3; commit
         6601ec6).
+    floor_noise_factor : float
+        Noise floor. Lower bound of the free-run noise floor, in units of the measured sensor
+        noise. Tuned: set by hand with the first search (commit 90b5a80).
     floor_factor : float
         Verdict. A residual within this multiple of the free-run noise floor is at the floor
         (also: the mode comparison is skipped when the effort's loop is there already). Tuned:
@@ -561,6 +564,7 @@ class DiagnoseSettings:
     bound_tolerance: float = _setting(1e-3, tuned=True, check=_SHARE_OPEN)
 
     # -- the noise floor and the verdict ----------------------------------------------------------
+    floor_noise_factor: float = _setting(3.0, tuned=True, check=_NONNEG)
     floor_factor: float = _setting(1.5, tuned=True, check=_POSITIVE)
     explained_share: float = _setting(0.5, tuned=False, check=_SHARE)
     periodic_floor_factor: float = _setting(3.0, tuned=True, check=_POSITIVE)
