@@ -214,7 +214,11 @@ def _cmd_perf(args: argparse.Namespace) -> int:
     from fricbench._atomic import atomic_write
     from fricbench.bench.perf import format_report, measure_performance
 
-    result = measure_performance(quick=args.quick)
+    try:
+        result = measure_performance(quick=args.quick)
+    except RuntimeError as exc:  # a refused measurement: say why, no traceback
+        print(f"fricbench perf: error: {exc}", file=sys.stderr)
+        return 1
     print(format_report(result))
     if args.json:
         atomic_write(args.json, json.dumps(result, indent=2) + "\n")

@@ -120,8 +120,12 @@ def _vector_rate(num_envs: int, warmup: int, steps: int, repeats: int
         batch.run(xr, vr, ar)
         kernel = max(kernel, steps * num_envs / (time.perf_counter() - t0))
         if not np.array_equal(batch.S, env._batch.S):
-            raise RuntimeError("perf: the kernel's run did not reproduce the vector env's "
-                               "steps; the two rates would not measure the same work")
+            # seen after an edit to a numba-inlined function: the disk cache of the module
+            # that inlines it keeps the old body (numba does not track the dependency)
+            raise RuntimeError("the kernel's run did not reproduce the vector env's steps, so "
+                               "the two rates would not measure the same work; if fricbench's "
+                               "sources were edited, clear numba's disk cache (make clean-cache) "
+                               "and run again")
     venv.close()
     return rate, kernel, peak / 2**20
 

@@ -50,3 +50,21 @@ def test_a_window_past_the_shortest_episode_is_refused() -> None:
         _vector_rate(2, warmup=41, steps=500, repeats=5)
     vec, kernel, _ = _vector_rate(2, warmup=40, steps=500, repeats=5)
     assert vec > 0.0 and kernel > 0.0
+
+
+def test_a_refused_measurement_exits_1_with_the_reason(monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """A kernel run that does not reproduce the env's (e.g. a stale numba disk cache) is a
+    clear error naming the remedy, exit 1, no traceback, no JSON written."""
+    import fricbench.bench.perf as perf
+    from fricbench.cli import main
+
+    def refused(quick: bool = False) -> dict[str, float]:
+        raise RuntimeError("the kernel's run did not reproduce the vector env's steps; "
+                           "make clean-cache")
+
+    monkeypatch.setattr(perf, "measure_performance", refused)
+    assert main(["perf", "--quick"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("fricbench perf: error: the kernel's run did not reproduce")
+    assert "Traceback" not in err
