@@ -22,6 +22,10 @@ def test_heldout_set_is_fixed_distinct_and_apart_from_tuning() -> None:
     tuning = {s for _, s in A.tuning_cases()}
     assert not tuning & set(seeds)
     assert min(seeds) >= A.HELDOUT_SEED_BASE
+    # the seeds studied outside the tuning set are no held-out case either
+    import second_sim as S  # the benchmark put the simulators' folder on the path
+    assert set(A.STUDIED_SEEDS) <= set(S.KINDS)
+    assert not {(k, s) for k, ss in A.STUDIED_SEEDS.items() for s in ss} & set(held)
     kinds = [k for k, _ in held]
     # every kind of the simulator is held out about equally often
     counts = {k: kinds.count(k) for k in set(kinds)}
