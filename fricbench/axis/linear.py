@@ -72,24 +72,25 @@ def sampled_plant(axis: Axis) -> control.StateSpace:
                           _compliance(axis.effects))
 
 
-Compliance = tuple[float, float, float, bool, bool]
+Compliance = tuple[float, float, float, bool, bool, float]
 """``(load fraction, resonance Hz, damping ratio, feedback on the table, friction and damping
-on the load)`` of a compliant axis."""
+on the load, the damping's share on the motor then)`` of a compliant axis."""
 
-RIGID: Compliance = (0.0, 50.0, 0.05, False, False)
+RIGID: Compliance = (0.0, 50.0, 0.05, False, False, 0.0)
 
 
 def _compliance(e: Effects) -> Compliance:
     if e.compliance_load_fraction <= 0.0:
         return RIGID
     return (e.compliance_load_fraction, e.compliance_frequency, e.compliance_damping,
-            e.measurement == "table", e.compliance_friction == "load")
+            e.measurement == "table", e.compliance_friction == "load",
+            e.compliance_damping_motor_share)
 
 
 def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int,
                    comp: Compliance = RIGID) -> control.StateSpace:
     h = c.ts / c.n_substeps
-    ratio, f_r, zeta, table, on_load = comp
+    ratio, f_r, zeta, table, on_load, b_motor_share = comp
     n_mech = 4 if ratio > 0.0 else 2
     a_sub = np.zeros((n_mech, n_mech))
     b_sub = np.zeros(n_mech)
@@ -98,7 +99,8 @@ def _sampled_plant(c: ControllerParams, m: MechanicsParams, delay: int,
         # (fricbench.axis.plant.compliance_load_constants), on [x, v, d, d']
         from fricbench.axis.plant import compliance_load_constants
 
-        cl = np.array(compliance_load_constants(m.mass, ratio, f_r, zeta, h, m.damping))
+        cl = np.array(compliance_load_constants(m.mass, ratio, f_r, zeta, h, m.damping,
+                                                b_motor_share))
         phi, gam, psi, lam = cl[:9].reshape(3, 3), cl[9:12], cl[12:15], cl[15]
         a_sub[0] = np.concatenate([[1.0], psi])
         b_sub[0] = lam

@@ -187,6 +187,7 @@ class Axis:
         p[K.P_COMP_ZETA] = e.compliance_damping
         p[PL.BL_LOAD] = e.backlash_load_fraction
         p[PL.COMP_LOAD] = 1.0 if e.compliance_friction == "load" else 0.0
+        p[PL.COMP_B_MOTOR] = e.compliance_damping_motor_share
         return p
 
     @property

@@ -69,7 +69,11 @@ load accelerates over the substep (:func:`compliance_load_constants`). The frict
 a substep stops the load at the substep's ends, so a resonance needs substeps well below its
 period (first order in the substep where the motor side's is exact: the tests'
 stick-slip runs converge to the rigid axis as the coupling stiffens and the substep shrinks).
-A zero load fraction ignores it (the rigid axis).
+A zero load fraction ignores it (the rigid axis). The share ``compliance_b_motor_share`` of
+``B`` acts on the motor instead (0, the default: all on the load): a real drive's viscous
+losses are in both bodies' bearings (the carriage's guides, the pulleys' and the motor's), and
+a model with all of them on one body makes up for the rest with the coupling's damping
+``zeta``. Ignored with the friction on the motor.
 
 Backlash between two bodies (off while the load fraction ``r_b`` is 0, the play operator
 above): the motor ``m_M = (1 - r_b) M`` takes the actuator force, the offset and the cogging; the
@@ -118,8 +122,8 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 (TS, NSUB, M, B, KT, IMAX, DELAY, FKIND, FC, DFC, FS_EXCESS, VS, DELTA, FV, DB, SIGMA0, SIGMA1,
  OFFSET, COG_SIN, COG_COS, COG_PERIOD, PD_GRAD, PD_SIN, PD_COS, PD_PERIOD, PD_CENTER,
  BACKLASH, TH_AMP, TH_TAU, QUANT, NOISE, MEAS_TABLE, COMP_RATIO, COMP_FREQ, COMP_ZETA,
- LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD) = range(39)
-N_PLANT = 39
+ LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD, COMP_B_MOTOR) = range(40)
+N_PLANT = 40
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
@@ -127,7 +131,7 @@ PLANT_NAMES = (
     "pd_center", "backlash", "thermal_amplitude", "thermal_tau", "quantization", "noise_std",
     "measure_table", "compliance_load_fraction", "compliance_frequency", "compliance_damping",
     "log_motor", "thermal_heating_speed", "backlash_load_fraction",
-    "compliance_friction_load",
+    "compliance_friction_load", "compliance_b_motor_share",
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
@@ -140,6 +144,9 @@ N_PLANT_HEATED = 37
 N_PLANT_TWO_BODY = 38
 """Length of the plant row before the compliant axis's friction on the load (padded by
 :func:`pad_row`)."""
+N_PLANT_LOAD_FRICTION = 39
+"""Length of the plant row before the motor's share of the damping of a compliant axis with
+the friction on the load (padded by :func:`pad_row`)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
 S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV, S_HEAT = 0, 1, 2, 3, 4, 5, 6
@@ -188,19 +195,21 @@ def pad_row(row: np.ndarray) -> np.ndarray:
     """A plant row of the current layout from one of an earlier layout.
 
     Rows of the rigid layout (32 entries), the compliant one (36), the one with the heating
-    speed (37) and the one with the two-body backlash (38) are accepted: the entries added
-    since (compliance, the logged side, the thermal heating speed, the backlash's load
-    fraction, the compliant axis's friction on the load) are appended off, so an older row
+    speed (37), the one with the two-body backlash (38) and the one with the compliant axis's
+    friction on the load (39) are accepted: the entries added since (compliance, the logged
+    side, the thermal heating speed, the backlash's load fraction, the compliant axis's
+    friction on the load, the motor's share of its damping) are appended off, so an older row
     keeps its meaning; a row of the current length is returned as a copy.
     """
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
     if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED,
-                                         N_PLANT_TWO_BODY):
-        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {N_PLANT_TWO_BODY}, "
-                         f"{N_PLANT_HEATED}, {N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, "
-                         f"got shape {r.shape}")
+                                         N_PLANT_TWO_BODY, N_PLANT_LOAD_FRICTION):
+        raise ValueError(f"row: expected a plant row of {N_PLANT} (or "
+                         f"{N_PLANT_LOAD_FRICTION}, {N_PLANT_TWO_BODY}, {N_PLANT_HEATED}, "
+                         f"{N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, got shape "
+                         f"{r.shape}")
     out = default_row()
     out[:r.shape[0]] = r
     return out
@@ -274,11 +283,13 @@ def compliance_constants(m_total: float, ratio: float, f_r: float, zeta: float,
 
 
 def compliance_load_constants(m_total: float, ratio: float, f_r: float, zeta: float,
-                              h: float, damping: float = 0.0) -> tuple[float, ...]:
+                              h: float, damping: float = 0.0,
+                              motor_share: float = 0.0) -> tuple[float, ...]:
     """Substep constants of the compliant coupling with the friction and the damping on the load.
 
     The two-mass system with the viscous ``damping`` B on the load (a belt's carriage on its
-    guides: the friction's viscous part) is integrated exactly for two forces held over a
+    guides: the friction's viscous part), but for the share ``motor_share`` of it on the
+    motor (its bearings, the pulleys), is integrated exactly for two forces held over a
     substep ``h``: ``g_M`` on the motor (the actuator, the offset, cogging) and ``g_L`` on the
     load (its friction): with
     ``s = (v_M, d, d')``, ``s+ = Phi s + Gamma_M g_M + Gamma_L g_L`` and
@@ -288,16 +299,22 @@ def compliance_load_constants(m_total: float, ratio: float, f_r: float, zeta: fl
     20 numbers: the first 16 in the order of :func:`compliance_constants`.
     """
     m_motor, m_load, k, c = _coupling(m_total, ratio, f_r, zeta)
-    # w = [v, d, d', int v, g_M, g_L]:  m_M v' = g_M + k d + c d' ;
-    # m_L (v + d')' = g_L - B (v + d') - k d - c d'
+    # w = [v, d, d', int v, g_M, g_L]:  m_M v' = g_M - B_M v + k d + c d' ;
+    # m_L (v + d')' = g_L - B_L (v + d') - k d - c d'   (B_M = motor_share B, B_L = B - B_M)
+    b_motor = motor_share * damping
+    b_load = damping - b_motor
     F = np.zeros((6, 6))
     F[0, 1] = k / m_motor
     F[0, 2] = c / m_motor
     F[0, 4] = 1.0 / m_motor
     F[1, 2] = 1.0
-    F[2, 0] = -damping / m_load
+    F[2, 0] = -b_load / m_load
     F[2, 1] = -k / m_load - k / m_motor
-    F[2, 2] = -(c + damping) / m_load - c / m_motor
+    F[2, 2] = -(c + b_load) / m_load - c / m_motor
+    if b_motor != 0.0:
+        # only then: all of B on the load stays the same numbers bit for bit
+        F[0, 0] = -b_motor / m_motor
+        F[2, 0] += b_motor / m_motor
     F[2, 4] = -1.0 / m_motor
     F[2, 5] = 1.0 / m_load
     F[3, 0] = 1.0
@@ -404,7 +421,7 @@ def constants(p: np.ndarray) -> Plant:
     m_eff_load = inv_pos_cl = inv_neg_cl = 0.0
     if load_fric:
         full = compliance_load_constants(m, p[COMP_RATIO], p[COMP_FREQ], p[COMP_ZETA], h,
-                                         p[B])
+                                         p[B], p[COMP_B_MOTOR])
         cc = full[:16]
         cl = full[16:]
         m_eff = h / cc[9]

@@ -205,6 +205,10 @@ class Effects:
         ``"load"`` (a belt's or a long screw's carriage on its guides; the friction at the
         load's position). The actuator force, the load force and the cogging stay on the
         motor.
+    compliance_damping_motor_share : float
+        With ``compliance_friction = "load"``: the share of the viscous damping ``B`` on the
+        motor (its bearings, the pulleys), the rest on the load; 0 (the default) puts all of it
+        on the load. Ignored with the friction on the motor. 0 .. 1.
     backlash_load_fraction : float
         Two bodies across the backlash gap: the share ``r = m_L / M`` of the mass that is the
         load (table). The friction acts on the load; the damping is split as the mass is;
@@ -238,6 +242,7 @@ class Effects:
     compliance_damping: float = 0.05
     backlash_load_fraction: float = 0.0
     compliance_friction: str = "motor"
+    compliance_damping_motor_share: float = 0.0
 
     def __post_init__(self) -> None:
         check_range("backlash", self.backlash, 0.0, 1e-3, "m")
@@ -264,6 +269,8 @@ class Effects:
         check_range("compliance_damping", self.compliance_damping, 0.0, 2.0)
         check_range("backlash_load_fraction", self.backlash_load_fraction, 0.0, 0.95)
         check_choice("compliance_friction", self.compliance_friction, ("motor", "load"))
+        check_range("compliance_damping_motor_share", self.compliance_damping_motor_share, 0.0,
+                    1.0)
         if self.backlash_load_fraction > 0.0 and self.compliance_load_fraction > 0.0:
             raise ValueError(
                 f"backlash_load_fraction={self.backlash_load_fraction:g} with "

@@ -111,10 +111,12 @@ def test_linear_two_mass_is_exact_for_a_held_force() -> None:
     _check_held_force_zoh(side=0.0, seed=7, damping_low=0.0)
 
 
-def _check_held_force_zoh(side: float, seed: int, damping_low: float) -> None:
+def _check_held_force_zoh(side: float, seed: int, damping_low: float,
+                          motor_share: float = 0.0) -> None:
     """The open-loop compliant plant, friction off, the friction's side ``side`` (the damping
-    B with it), against scipy's zero-order-hold discretisation of the two-mass ODE, to 1e-9
-    of the motion, at one substep per sample (three random axes)."""
+    B with it, but for ``motor_share`` of it on the motor when on the load), against scipy's
+    zero-order-hold discretisation of the two-mass ODE, to 1e-9 of the motion, at one substep
+    per sample (three random axes)."""
     from scipy.signal import cont2discrete, dlsim
 
     rng = np.random.default_rng(seed)
@@ -126,6 +128,7 @@ def _check_held_force_zoh(side: float, seed: int, damping_low: float) -> None:
         row = _row(mass, ratio, f_r, zeta, ts, 1)
         row[PL.B] = damp * mass
         row[PL.COMP_LOAD] = side
+        row[PL.COMP_B_MOTOR] = motor_share
         force = mass * rng.standard_normal(n)
         table, motor = _open_loop(row, force, ts, 1)
         m_l = ratio * mass
@@ -133,7 +136,8 @@ def _check_held_force_zoh(side: float, seed: int, damping_low: float) -> None:
         mu = m_m * m_l / mass
         w = 2 * np.pi * f_r
         k, c = mu * w * w, 2 * zeta * mu * w
-        b_m, b_l = (0.0, damp * mass) if side else (damp * mass, 0.0)
+        b_m, b_l = ((motor_share * damp * mass, (1.0 - motor_share) * damp * mass) if side
+                    else (damp * mass, 0.0))
         a = np.array([[0, 1, 0, 0], [-k / m_m, -(c + b_m) / m_m, k / m_m, c / m_m],
                       [0, 0, 0, 1], [k / m_l, c / m_l, -k / m_l, -(c + b_l) / m_l]])
         b = np.array([[0.0], [1.0 / m_m], [0.0], [0.0]])
@@ -150,6 +154,25 @@ def test_friction_side_on_the_load_is_exact_for_a_held_force() -> None:
     zero-order-hold discretisation of the two-mass ODE with B on the load (scipy's), to
     rounding, at one substep per sample."""
     _check_held_force_zoh(side=1.0, seed=11, damping_low=0.1)
+
+
+@pytest.mark.parametrize("motor_share", [0.3, 1.0])
+def test_damping_split_between_the_bodies_is_exact_for_a_held_force(motor_share: float) -> None:
+    """Friction on the load, a share of the damping B on the motor (its bearings): the
+    zero-order-hold discretisation of the two-mass ODE with B split so (scipy's), to rounding."""
+    _check_held_force_zoh(side=1.0, seed=13, damping_low=0.1, motor_share=motor_share)
+
+
+def test_damping_share_is_ignored_with_the_friction_on_the_motor() -> None:
+    """The share only moves B with the friction on the load: on the motor side it changes
+    nothing, bit for bit."""
+    row = _row(20.0, 0.4, 80.0, 0.03, 1e-3, 2)
+    row[PL.B] = 30.0
+    force = 20.0 * np.random.default_rng(3).standard_normal(500)
+    base = _open_loop(row, force, 1e-3, 2)
+    row[PL.COMP_B_MOTOR] = 0.7
+    moved = _open_loop(row, force, 1e-3, 2)
+    assert all(np.array_equal(a, b) for a, b in zip(base, moved, strict=True))
 
 
 def _friction_row(ratio: float, f_r: float, n_sub: int, side: float) -> np.ndarray:
@@ -221,11 +244,20 @@ def test_axis_spec_carries_compliance() -> None:
         compliance_load_fraction=0.3, compliance_friction="load").to_dict())
     assert on_load.effects.compliance_friction == "load"
     assert on_load.pack()[PL.COMP_LOAD] == 1.0
+    assert on_load.pack()[PL.COMP_B_MOTOR] == 0.0
+    split = Axis.from_dict(Axis().with_effects(
+        compliance_load_fraction=0.3, compliance_friction="load",
+        compliance_damping_motor_share=0.25).to_dict())
+    assert split.pack()[PL.COMP_B_MOTOR] == 0.25
+    with pytest.raises(ValueError, match="compliance_damping_motor_share"):
+        Axis().with_effects(compliance_damping_motor_share=1.5)
 
 
 def test_rigid_rows_are_padded() -> None:
     old = PL.default_row(3.0)[:PL.N_PLANT_RIGID]
     row = PL.pad_row(old)
     assert row.shape == (PL.N_PLANT,) and row[PL.COMP_RATIO] == 0.0
+    before = PL.default_row(3.0)[:PL.N_PLANT_LOAD_FRICTION]
+    assert np.array_equal(PL.pad_row(before), PL.default_row(3.0))
     with pytest.raises(ValueError, match=f"expected a plant row of {PL.N_PLANT}"):
         PL.pad_row(np.zeros(5))

@@ -96,6 +96,7 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "thermal_heating_speed": ("effects", "thermal_heating_speed", ""),
     "backlash_load_fraction": ("effects", "backlash_load_fraction", ""),
     "compliance_friction_load": ("effects", "compliance_friction", ""),
+    "compliance_b_motor_share": ("effects", "compliance_damping_motor_share", ""),
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -110,7 +111,8 @@ _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_
               "compliance_frequency": ("compliance_load_fraction",),
               "compliance_damping": ("compliance_load_fraction",),
               "backlash_load_fraction": ("backlash",),
-              "compliance_friction_load": ("compliance_load_fraction",)}
+              "compliance_friction_load": ("compliance_load_fraction",),
+              "compliance_b_motor_share": ("compliance_friction_load",)}
 
 class TwinError(ValueError):
     """The diagnosis cannot be written as an env (the message names why)."""
