@@ -188,7 +188,7 @@ def test_compliance_needs_the_residual_to_fall_at_its_resonance(removes_ringing:
     flexible = ring if removes_ringing else 0.5 * slow - ring
     plant = np.zeros(CL.N_PLANT)
     plant[CL.I_CF], plant[CL.I_CR] = f_r, ratio
-    prep = SimpleNamespace(n=n, ts=TS, x=x)
+    prep = SimpleNamespace(n=n, ts=TS, x=x, x_load=None)
 
     def simulate(models, prep_, w):  # type: ignore[no-untyped-def]
         ys = np.stack([flexible if np.any(m.plant) else rigid for m in models])

@@ -35,7 +35,7 @@ __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_
            "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_THV",
            "I_IMAX", "I_DELAY",
            "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR", "I_BL_LOAD",
-           "I_COMP_LOAD"]
+           "I_COMP_LOAD", "I_COMP_B_MOTOR"]
 
 # -- the plant entries the diagnosis fits (indices into the plant row) --------------------------
 I_M, I_B, I_FC, I_DFC, I_DB = PL.M, PL.B, PL.FC, PL.DFC, PL.DB
@@ -46,6 +46,7 @@ I_BL, I_THA, I_THT, I_THV = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.TH_VHEAT
 I_IMAX, I_DELAY = PL.IMAX, PL.DELAY
 I_BL_LOAD = PL.BL_LOAD
 I_COMP_LOAD = PL.COMP_LOAD
+I_COMP_B_MOTOR = PL.COMP_B_MOTOR
 I_CR, I_CF, I_CZ = PL.COMP_RATIO, PL.COMP_FREQ, PL.COMP_ZETA
 I_MEAS_TABLE, I_LOG_MOTOR = PL.MEAS_TABLE, PL.LOG_MOTOR
 

@@ -314,6 +314,9 @@ def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
     base_sse = 0.0
     cand_sse = 0.0
     fits = []
+    # a load encoder: its held-out error joins the motor's, as in the fit (PositionFit); the
+    # deflection of a coupling shows there, where the loop does not hold it down
+    base_load = None if prep.x_load is None else _load_positions([model], prep, w)[0]
     for k in (0, 1):
         train = prep.folds != k
         m = _init_effect(model, name, prep, b)
@@ -322,7 +325,26 @@ def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
         fits.append(res.model)
         base_sse += _position_sse(y, prep, ~train)
         cand_sse += _position_sse(res.y, prep, ~train)
+        if base_load is not None and prep.x_load is not None:
+            cand_load = _load_positions([res.model], prep, w)[0]
+            base_sse += _load_sse(base_load, prep, ~train)
+            cand_sse += _load_sse(cand_load, prep, ~train)
     return cand_sse / max(base_sse, 1e-300), fits
+
+
+def _load_positions(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None
+                    ) -> np.ndarray:
+    """Free-run positions of the load encoder (``prep.x_load``) of ``models``."""
+    loads = np.empty((len(models), prep.n))
+    simulate_models(models, prep, w, other=loads, effort=False)
+    return loads
+
+
+def _load_sse(y_load: np.ndarray, prep: Prepared, mask: np.ndarray) -> float:
+    if prep.x_load is None:
+        return 0.0
+    r = (prep.x_load - y_load)[mask]
+    return sumsq(r) if np.all(np.isfinite(r)) else float("inf")
 
 
 def _effect_position_size(model: GreyBox, name: str, prep: Prepared, w: np.ndarray | None,

@@ -59,6 +59,9 @@ _COUNTS0: _Check = ("a non-empty tuple of integers >= 0",
 _COUNTS: _Check = ("a non-empty tuple of integers >= 1",
                    lambda v: isinstance(v, tuple) and len(v) > 0
                    and all(_int(x) and x >= 1 for x in v))
+_SHARES: _Check = ("a non-empty tuple of shares in [0, 1]",
+                   lambda v: isinstance(v, tuple) and len(v) > 0
+                   and all(_real(x) and 0.0 <= x <= 1.0 for x in v))
 _RANGE: _Check = ("a pair (low, high) with 0 < low < high",
                   lambda v: isinstance(v, tuple) and len(v) == 2 and all(_real(x) for x in v)
                   and 0.0 < v[0] < v[1])
@@ -353,6 +356,9 @@ class DiagnoseSettings:
         tuning seeds (the upper bound; commit 48730c3).
     compliance_start_ratios : tuple of float
         Effects (compliance). Load shares tried at each start frequency. Not tuned: a grid.
+    compliance_start_b_motor_shares : tuple of float
+        Effects (compliance). Shares of the damping ``B`` on the motor tried with the friction
+        on the load (the fit refines the share). Not tuned: a grid (all on the load, half).
     compliance_start_zeta : float
         Effects (compliance). Damping ratio of the starts. Not tuned: a typical coupling or
         screw (0.01 .. 0.1).
@@ -553,6 +559,8 @@ class DiagnoseSettings:
                                                           check=_RANGE)
     compliance_start_ratios: tuple[float, ...] = _setting((0.15, 0.4, 0.7), tuned=False,
                                                           check=_POSITIVES)
+    compliance_start_b_motor_shares: tuple[float, ...] = _setting((0.0, 0.5), tuned=False,
+                                                                  check=_SHARES)
     compliance_start_zeta: float = _setting(0.05, tuned=False, check=_POSITIVE)
     compliance_excited_share: float = _setting(1e-4, tuned=False, check=_SHARE_OPEN)
     compliance_min_coherence: float = _setting(0.8, tuned=False, check=_SHARE_OPEN)

@@ -134,6 +134,12 @@ class Effect(ABC):
         """Plant entries that are free parameters given the model's ``effects``."""
         return self.parameters
 
+    def conditional(self, p: np.ndarray) -> tuple[int, ...]:
+        """Plant entries fitted besides :meth:`free` where the row ``p`` gives them a meaning
+        (a compliant axis's share of the damping on the motor, with the friction on the load);
+        neither sizes nor shapes, never probed."""
+        return ()
+
     def available(self, prep: Prepared) -> bool:
         """Whether the run can show the effect at all (beyond ``needs_reversals``)."""
         return True

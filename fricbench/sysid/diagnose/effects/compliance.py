@@ -4,8 +4,10 @@ A flexible coupling, a long ball screw or a belt lets the load (the table) lag t
 axis gains a resonance ``f_r`` (the two masses against each other) and, seen from the motor,
 an anti-resonance ``f_a = f_r sqrt(1 - r)`` (the load ringing against a held motor), where
 ``r = m_L / M`` is the load's share of the mass. The plant (:mod:`fricbench.axis.plant`) holds
-the size ``r`` and the shape ``f_r``, ``zeta``; forces (friction, the damping, cogging) stay on
-the motor side.
+the size ``r`` and the shape ``f_r``, ``zeta``. The friction and the damping act on the motor
+side (screw bearings, nut and motor: a ball-screw axis) or on the load (a belt's or a long
+screw's carriage on its guides; ``compliance_friction_load``): the start tries both and keeps
+the better, as it does the sensor's side. The actuator force and cogging stay on the motor.
 
 With one position the sensor is the one fed back: on the motor (semi-closed loop: the motor
 encoder) or on the load (full-closed loop: a linear scale); the start tries both and keeps the
@@ -19,6 +21,7 @@ tried at a few load shares by simulation.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
@@ -82,10 +85,13 @@ def deflection_resonance(x_motor: np.ndarray, x_load: np.ndarray, ts: float, f_l
                          f_hi: float) -> tuple[float, float] | None:
     """Anti-resonance ``f_a`` (Hz) and its damping ratio from two encoders, by least squares.
 
-    The deflection ``d = x_L - x_M`` obeys ``d'' + 2 zeta_a w_a d' + w_a^2 d = -a_M`` whatever
-    drives the motor (the load's own equation), so its derivatives and the motor's acceleration
-    (central differences of low-passed signals) give ``w_a^2`` and ``2 zeta_a w_a`` linearly.
-    Returns None when the fit is not physical (no positive stiffness) or out of range.
+    The deflection ``d = x_L - x_M`` obeys ``d'' + 2 zeta_a w_a d' + w_a^2 d = -a_M - F_L / m_L``
+    whatever drives the motor (the load's own equation), ``F_L`` the load's friction and
+    damping when they act on it (a belt's carriage): ``F_c sign(v_L) + B_L v_L``. So the
+    deflection's derivatives, the motor's acceleration and those two columns of the load's
+    velocity (central differences of low-passed signals) give ``w_a^2`` and ``2 zeta_a w_a``
+    linearly, whichever body the friction acts on (its columns' coefficients are then about
+    zero). Returns None when the fit is not physical (no positive stiffness) or out of range.
     """
     fc = min(0.4 / ts, 4.0 * f_hi)
     b, a = signal.butter(4, min(fc * 2.0 * ts, 0.95))
@@ -93,9 +99,11 @@ def deflection_resonance(x_motor: np.ndarray, x_load: np.ndarray, ts: float, f_l
     xm = signal.filtfilt(b, a, np.asarray(x_motor, float))
     dv = np.gradient(d, ts)
     da = np.gradient(dv, ts)
-    am = np.gradient(np.gradient(xm, ts), ts)
+    vm = np.gradient(xm, ts)
+    am = np.gradient(vm, ts)
+    vl = vm + dv
     edge = slice(20, -20) if d.size > 100 else slice(None)
-    X = np.column_stack([d[edge], dv[edge]])
+    X = np.column_stack([d[edge], dv[edge], np.sign(vl[edge]), vl[edge]])
     y = -(da + am)[edge]
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))) or sumsq(X[:, 0]) <= 0.0:
         return None
@@ -204,6 +212,9 @@ class Compliance(Effect):
         if i == CL.I_CZ:
             zeta = defaults().compliance_zeta_range
             return Param(i, True, zeta[0], zeta[1], 1.0)
+        if i == CL.I_COMP_B_MOTOR:
+            # a share: all of B on the load (0) or on the motor (1) are both real axes
+            return Param(i, False, 0.0, 1.0, 0.25)
         return Param(i, False, 0.0, 0.95, 0.1)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
@@ -213,10 +224,18 @@ class Compliance(Effect):
         if i == CL.I_CZ:
             zeta = defaults().compliance_zeta_range
             return float(np.clip(value, 1.5 * zeta[0], 0.5 * zeta[1]))
+        if i == CL.I_COMP_B_MOTOR:
+            return float(np.clip(value, 0.0, 1.0))
         return float(np.clip(value, 0.02, 0.9))
 
     def probe_step(self, i: int, value: float, b: Bounds) -> float:
         return 0.1 if i == CL.I_CR else 0.05 * abs(value)
+
+    def conditional(self, p: np.ndarray) -> tuple[int, ...]:
+        # with the friction on the load, the damping B is split between the two bodies' bearings
+        # (the carriage's guides, the pulleys and the motor): all of it on one body leaves the
+        # coupling's damping zeta to make up for the other's
+        return (CL.I_COMP_B_MOTOR,) if p[CL.I_COMP_LOAD] > 0.5 else ()
 
     def switched_on(self, p: np.ndarray, prep: Prepared) -> np.ndarray:
         q = p.copy()
@@ -232,6 +251,8 @@ class Compliance(Effect):
         # the rigid axis of the diagnosis: feedback from the motor, the table logged
         q[CL.I_LOG_MOTOR] = 0.0
         q[CL.I_MEAS_TABLE] = 0.0
+        q[CL.I_COMP_LOAD] = 0.0
+        q[CL.I_COMP_B_MOTOR] = 0.0
         return q
 
     def _frequencies(self, prep: Prepared, b: Bounds, y: np.ndarray) -> list[float]:
@@ -267,7 +288,7 @@ class Compliance(Effect):
             starting_pid_controllers,
         )
         from fricbench.sysid.diagnose.controllers import CascadeController
-        from fricbench.sysid.diagnose.models import PositionFit, position_params
+        from fricbench.sysid.diagnose.models import PositionFit, position_params, simulate_models
 
         if not float(model.plant[CL.I_M]) > 0.0:
             # no positive mass to split (an inverse dynamics that failed): nothing to start
@@ -277,6 +298,11 @@ class Compliance(Effect):
         if not freqs:
             freqs = list(np.geomspace(max(lo, 2.0), 0.5 * hi, 4))
         sides = ((1.0, 0.0),) if prep.x_load is not None else ((1.0, 0.0), (0.0, 1.0))
+        # the friction on the motor, or (told apart only by a load encoder, which sees the
+        # load's own friction) on the load with a share of B on the motor
+        bodies = [(0.0, 0.0)]
+        if prep.x_load is not None:
+            bodies += [(1.0, s) for s in defaults().compliance_start_b_motor_shares]
         cascade = isinstance(model.controller, CascadeController)
         # the standard loops of the model's own family (a PID model stays a PID)
         ctrl = model.controller
@@ -291,20 +317,34 @@ class Compliance(Effect):
                 for f_r in (f, f / math.sqrt(1.0 - ratio)):
                     if not lo < f_r < hi:
                         continue
-                    for log_motor, table in sides:
+                    for (log_motor, table), (on_load, b_motor) in itertools.product(
+                            sides, bodies):
                         q = model.plant.copy()
                         q[CL.I_CR], q[CL.I_CF], q[CL.I_CZ] = (ratio, f_r,
                                                               defaults().compliance_start_zeta)
                         q[CL.I_LOG_MOTOR], q[CL.I_MEAS_TABLE] = log_motor, table
+                        # the friction and the damping on the motor or on the load (with a
+                        # share of the damping on the motor)
+                        q[CL.I_COMP_LOAD], q[CL.I_COMP_B_MOTOR] = on_load, b_motor
                         rows.append(q)
         if not rows:
             return model
 
         def masked_sse(models: list[GreyBox]) -> np.ndarray:
-            ys, _, _ = simulate(models, prep, w)
+            if prep.x_load is None:
+                ys, _, _ = simulate(models, prep, w)
+                loads = None
+            else:
+                # a load encoder: the start is ranked on both positions, as the fit is
+                # (PositionFit); the deflection shows most on the load's, where the loop does
+                # not hold it down
+                loads = np.empty((len(models), prep.n))
+                ys, _, _ = simulate_models(models, prep, w, other=loads, effort=False)
             out = np.full(len(models), math.inf)
             for k, yy in enumerate(ys):
                 r = (prep.x - yy)[mask]
+                if loads is not None:
+                    r = np.concatenate([r, (prep.x_load - loads[k])[mask]])
                 if np.all(np.isfinite(r)):
                     out[k] = sumsq(r)
             return out
@@ -358,8 +398,12 @@ class Compliance(Effect):
         p = model.plant
         f_r = float(p[CL.I_CF])
         f_a = f_r * math.sqrt(max(1.0 - float(p[CL.I_CR]), 0.0))
-        ys, _, _ = simulate([model, model.without(self.name)], prep, w)
+        pair = [model, model.without(self.name)]
         nper = int(min(prep.n, max(256, round(1.0 / prep.ts))))
+        cfg = defaults()
+        if prep.x_load is not None:
+            return self._deflection_evidence(pair, prep, w, nper)
+        ys, _, _ = simulate(pair, prep, w)
         power = []
         for y in ys:
             r = prep.x - y
@@ -377,12 +421,44 @@ class Compliance(Effect):
         left = float(np.sum(p_with[band])) / rigid_band
         fall = float(np.sum(p_rigid - p_with))
         share = float(np.sum(p_rigid[band] - p_with[band])) / fall if fall > 0.0 else -1.0
-        cfg = defaults()
         if left > cfg.compliance_band_residual_max or share < cfg.compliance_band_share_min:
             return (f"{self.name}: the fitted resonance ({f_a:.3g} .. {f_r:.3g} Hz) is not "
                     f"where the residual fell ({100.0 * left:.0f} % of the rigid model's "
                     f"residual left in its band, {100.0 * share:.0f} % of the fall there): a "
                     "flexible model standing in for another mismatch")
+        return None
+
+    def _deflection_evidence(self, pair: list[GreyBox], prep: Prepared, w: np.ndarray | None,
+                             nper: int) -> str | None:
+        """With a load encoder the coupling's deflection ``x_L - x_M`` is measured: the
+        compliant model must explain most of it (at most ``settings.compliance_band_residual_max``
+        of its power left in the deflection's residual), where the rigid model predicts none.
+        Under a loop tuned below the resonance the deflection is mostly the quasi-static lag
+        ``F / k`` of the load, not a ringing, so the band test of the motor's residual would
+        miss it; and its power is not weighted by ``f^2`` as the band test's is, which would
+        make it the encoders' noise."""
+        from fricbench.sysid.diagnose.models import simulate_models
+
+        assert prep.x_load is not None
+        loads = np.empty((2, prep.n))
+        ys, _, _ = simulate_models(pair, prep, w, other=loads, effort=False)
+        d_meas = prep.x_load - prep.x
+        power = []
+        for y, yl in zip(ys, loads, strict=True):
+            r = d_meas - (yl - y)
+            if not np.all(np.isfinite(r)):
+                return None  # a diverging loop is rejected by the search itself
+            _, pxx = signal.welch(r - np.mean(r), fs=1.0 / prep.ts, nperseg=nper,
+                                  detrend="linear")
+            power.append(float(np.sum(pxx)))
+        p_with, p_rigid = power
+        if p_rigid <= 0.0:
+            return f"{self.name}: the two encoders show no deflection"
+        left = p_with / p_rigid
+        if left > defaults().compliance_band_residual_max:
+            return (f"{self.name}: the fitted coupling leaves {100.0 * left:.0f} % of the "
+                    "measured deflection between the two encoders: a flexible model standing in "
+                    "for another mismatch")
         return None
 
     def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
@@ -392,4 +468,8 @@ class Compliance(Effect):
                 "zeta": float(p[CL.I_CZ]),
                 # 1: that position is the load's, 0: the motor's
                 "logged_on_load": 1.0 - float(p[CL.I_LOG_MOTOR]),
-                "feedback_on_load": float(p[CL.I_MEAS_TABLE])}
+                "feedback_on_load": float(p[CL.I_MEAS_TABLE]),
+                # 1: the friction and the damping act on the load, 0: on the motor
+                "friction_on_load": float(p[CL.I_COMP_LOAD]),
+                # with the friction on the load: the share of the damping B on the motor
+                "damping_motor_share": float(p[CL.I_COMP_B_MOTOR])}
