@@ -625,8 +625,10 @@ def position_params(model: GreyBox, b: Bounds, *, controller: bool,
         out.append(_damping_param(b))
     for e in (model.effects if effects is None else effects):
         effect = get_effect(e)
+        held = effect.held(model.plant)
         for i in effect.free(model.effects) + effect.conditional(model.plant):
-            out.append(effect.bounds(i, float(model.plant[i]), b))
+            if i not in held:
+                out.append(effect.bounds(i, float(model.plant[i]), b))
     return out
 
 

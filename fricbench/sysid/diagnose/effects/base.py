@@ -140,6 +140,12 @@ class Effect(ABC):
         neither sizes nor shapes, never probed."""
         return ()
 
+    def held(self, p: np.ndarray) -> tuple[int, ...]:
+        """Entries of :meth:`free` the position fits hold at their start where the row ``p``
+        leaves them unidentified (a compliant axis's damping ratio beside the load's own
+        damping)."""
+        return ()
+
     def available(self, prep: Prepared) -> bool:
         """Whether the run can show the effect at all (beyond ``needs_reversals``)."""
         return True
