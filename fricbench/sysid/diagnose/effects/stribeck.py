@@ -14,12 +14,8 @@ from fricbench.sysid.diagnose.prepared import Prepared
 
 
 def _vs_range(v_max: float) -> tuple[float, float]:
-    # Stribeck velocities from 0.1 % of the top speed to the top speed: the Stribeck velocity
-    # is the contact's, not the run's, and a slow run may stay inside the Stribeck regime
-    # (half the top speed stood here, and the fits pressed against it); beyond the top speed
-    # the hump over the run is a level and a curvature that Coulomb friction and the damping
-    # share
-    return max(1e-3 * v_max, 1e-7), max(v_max, 2e-7)
+    # Stribeck velocities from 0.1 % to half of the top speed
+    return max(1e-3 * v_max, 1e-7), max(0.5 * v_max, 2e-7)
 
 
 class StribeckFriction(Effect):
