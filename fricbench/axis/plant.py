@@ -147,6 +147,9 @@ N_PLANT_TWO_BODY = 38
 N_PLANT_LOAD_FRICTION = 39
 """Length of the plant row before the motor's share of the damping of a compliant axis with
 the friction on the load (padded by :func:`pad_row`)."""
+OLDER_PLANT_LENGTHS = (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED, N_PLANT_TWO_BODY,
+                       N_PLANT_LOAD_FRICTION)
+"""Lengths of the earlier plant layouts :func:`pad_row` accepts (and stored rows may have)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
 S_X, S_V, S_XPLAY, S_Z, S_DEF, S_DEFV, S_HEAT = 0, 1, 2, 3, 4, 5, 6
@@ -204,8 +207,7 @@ def pad_row(row: np.ndarray) -> np.ndarray:
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
-    if r.ndim != 1 or r.shape[0] not in (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED,
-                                         N_PLANT_TWO_BODY, N_PLANT_LOAD_FRICTION):
+    if r.ndim != 1 or r.shape[0] not in OLDER_PLANT_LENGTHS:
         raise ValueError(f"row: expected a plant row of {N_PLANT} (or "
                          f"{N_PLANT_LOAD_FRICTION}, {N_PLANT_TWO_BODY}, {N_PLANT_HEATED}, "
                          f"{N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, got shape "

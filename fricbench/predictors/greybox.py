@@ -77,12 +77,8 @@ def _plant_size(state: dict[str, torch.Tensor]) -> int:
     """Stored plant-row length: the shared plant's, or the 19, 32, 36, 37, 38 or 39 entries of
     earlier files."""
     stored = state.get("plant_")
-    if stored is not None and tuple(stored.shape) in ((CL.LEGACY_N_PLANT,),
-                                                      (PL.N_PLANT_RIGID,),
-                                                      (PL.N_PLANT_COMPLIANT,),
-                                                      (PL.N_PLANT_HEATED,),
-                                                      (PL.N_PLANT_TWO_BODY,),
-                                                      (PL.N_PLANT_LOAD_FRICTION,)):
+    if stored is not None and stored.ndim == 1 and int(stored.shape[0]) in (
+            CL.LEGACY_N_PLANT, *PL.OLDER_PLANT_LENGTHS):
         return int(stored.shape[0])
     return CL.N_PLANT
 
