@@ -120,7 +120,7 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
                                                                         n_params: int) -> None:
     """Parameters fitted on one fold raise the other fold's error even when the extra force
     is zero: the tolerance of the position mode's effort check grows by that much on a short
-    log and stays at ``settings.effort_tolerance`` on a long one. Measured here by least squares
+    log and stays at ``settings.tolerance`` on a long one. Measured here by least squares
     on random regressors (a mass, damping, Coulomb level and ``n_params`` useless extras): the
     median inflation of the two-fold held-out error stays under the tolerance."""
     n_dec = n_rows + n_rows // 4
@@ -130,7 +130,7 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
     prep = SimpleNamespace(folds_dec=folds, sliding_dec=sliding)
     tol = _effort_check_tolerance(prep, n_params)  # type: ignore[arg-type]
     n_train = min(int(np.count_nonzero((folds != k) & sliding)) for k in (0, 1))
-    assert tol == pytest.approx(DEFAULT_SETTINGS.effort_tolerance + n_params / n_train)
+    assert tol == pytest.approx(DEFAULT_SETTINGS.tolerance + n_params / n_train)
     rng = np.random.default_rng(7)
     ratios = []
     for _ in range(400):
@@ -148,4 +148,4 @@ def test_the_effort_checks_tolerance_covers_what_a_fit_on_few_rows_adds(n_rows: 
         ratios.append(sse[1] / sse[0])
     assert np.median(ratios) - 1.0 < tol
     if n_rows >= 2000:
-        assert tol < DEFAULT_SETTINGS.effort_tolerance + 0.003
+        assert tol < DEFAULT_SETTINGS.tolerance + 0.003

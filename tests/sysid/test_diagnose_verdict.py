@@ -23,8 +23,8 @@ def _judge(effects: list[str], rms_after: float, heldout: tuple[float, float] | 
     return v.verdict, v.reason
 
 
-def test_the_margin_is_the_searchs_position_tolerance() -> None:
-    assert DEFAULT_SETTINGS.heldout_gain == DEFAULT_SETTINGS.position_tolerance
+def test_the_margin_is_the_searchs_tolerance() -> None:
+    assert DEFAULT_SETTINGS.heldout_gain == DEFAULT_SETTINGS.tolerance
 
 
 @pytest.mark.parametrize(("after", "verdict"), [(0.5, "explained"), (0.97, "explained"),

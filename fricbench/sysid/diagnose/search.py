@@ -401,7 +401,7 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
     on the other fold against the model without it, refitted the same way (so a refitted
     friction level alone is no gain). Returns the scores and, when one wins, ``(score,
     model, y)`` as :func:`_search_with_effort` accepts it. A candidate that makes the held-out
-    effort error worse by more than ``settings.effort_tolerance`` is rejected.
+    effort error worse by more than ``settings.tolerance`` is rejected.
     """
     forces = [e for e in m.effects if get_effect(e).kind == "force"]
     base_fits = {}
@@ -440,7 +440,7 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
         sc = CandidateScore(name, _n_params(name, effects), rho, "position", size / floor,
                             size >= min_position_size(settings, name) * floor,
                             "judged on the position: the effort shows no more")
-        if effort_ratio > 1.0 + settings.effort_tolerance:
+        if effort_ratio > 1.0 + settings.tolerance:
             # the measured effort contradicts it: a force the effort does not carry stands in
             # for a mismatch of the loop (on a hobby motor's step run, Coulomb, Stribeck and
             # position-dependent friction fitted this way cut the training position error 2x
@@ -585,7 +585,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     log(f"    rejected {why}")
                     continue
                 accepted = (winner, new, y_new)
-            if accepted is None and cur.position_rms > settings.position_phase_factor * floor:
+            if accepted is None and cur.position_rms > settings.floor_factor * floor:
                 # the effort shows no more force, the position still does: judge the force
                 # effects on it from here on
                 log("  the effort shows no more: force effects judged on the free-run position")
@@ -629,7 +629,7 @@ def _position_prune(model: GreyBox, prep: Prepared, idim: InverseDynamics,
     The effort search never fits the free-run position, so it is held out from it. Each
     round removes the effect whose removal (the force terms refitted without it) lowers the
     free-run rms the most, while the model with it is worse by more than
-    ``settings.position_tolerance``. Returns ``(effect, rms with, rms without)`` per removal.
+    ``settings.tolerance``. Returns ``(effect, rms with, rms without)`` per removal.
     """
     out: list[tuple[str, float, float]] = []
     y, _ = simulate_position(model, prep, w)
@@ -639,7 +639,7 @@ def _position_prune(model: GreyBox, prep: Prepared, idim: InverseDynamics,
         ys = simulate_models(trials, prep, w)[0]
         rms_without = [_rms(prep.x - yy) for yy in ys]
         k = int(np.argmin(rms_without))
-        if not rms > (1.0 + defaults().position_tolerance) * rms_without[k]:
+        if not rms > (1.0 + defaults().tolerance) * rms_without[k]:
             break
         out.append((model.effects[k], rms, rms_without[k]))
         log(f"    {model.effects[k]} makes the free-run position worse: "
@@ -1057,14 +1057,14 @@ def _effort_check_ratio(idim: InverseDynamics, base_sse: float,
 
 def _effort_check_tolerance(prep: Prepared, n_params: int) -> float:
     """How much worse a candidate may make the held-out effort error of the position mode's
-    effort check: ``settings.effort_tolerance`` plus what ``n_params`` parameters fitted to one fold
+    effort check: ``settings.tolerance`` plus what ``n_params`` parameters fitted to one fold
     add to the other fold's error even when the force is right, ``n_params / n``, ``n`` the
     sliding rows of the smaller training fold (the expected out-of-sample inflation of a least-
     squares fit). A short log gives the check few rows: a 1 kHz drive logged at 100 Hz for
     13 s slides on 83 decimated rows, and the Stribeck friction actually there, which cut the
     held-out position error 26x, made the effort's error x1.028 worse."""
     n = min(int(np.count_nonzero((prep.folds_dec != k) & prep.sliding_dec)) for k in (0, 1))
-    return defaults().effort_tolerance + n_params / max(n, 1)
+    return defaults().tolerance + n_params / max(n, 1)
 
 
 def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds,
@@ -1448,7 +1448,7 @@ def forward_selection(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bounds, 
     effort_check : InverseDynamics, optional
         The effort regression of a run diagnosed on its position although it logs an effort
         (its law was set aside): a force effect that makes the held-out effort error worse by
-        more than ``settings.effort_tolerance`` and what its parameters' fit on few rows adds
+        more than ``settings.tolerance`` and what its parameters' fit on few rows adds
         (:func:`_effort_check_tolerance`) is rejected (without ``idim`` only).
     log : callable, optional
         Receives progress lines.

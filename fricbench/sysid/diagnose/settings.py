@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 53 today; the one-method issue's target is at most 15.**
+**Tuned values: 51 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -170,19 +170,16 @@ class DiagnoseSettings:
         Closed-loop search. With an effort, an output effect found negligible is fitted again
         once the position rms has fallen below this fraction of the rms it was found
         negligible against. Tuned on the second simulator's tuning seeds (commit 5518110).
-    position_tolerance : float
-        Closed-loop search. An effect may make the free-run position prediction worse by this
-        fraction at most. Tuned: set by hand (commit 3998456).
-    effort_tolerance : float
-        Closed-loop search. A force effect judged on the position may make the held-out effort
-        error worse by this fraction at most, plus what its parameters fitted on one fold add
-        (``n_params / n``). Tuned on the shared DC motor's step run and the second simulator's
-        tuning seeds (commits cdaf206, cde39a0).
-    position_phase_factor : float
-        Closed-loop search. With an effort, once no force effect cuts the held-out effort
-        error, force effects are judged on the free-run position while its residual stays
-        above this multiple of the noise floor. Tuned on the second simulator's tuning seeds
-        (commit 8b6c1cf).
+    tolerance : float
+        Closed-loop search and verdict. A change of a prediction error within this fraction is
+        no change: an effect may make the free-run position prediction worse by this much at
+        most (else it leaves the final model); a force effect judged on the position may make
+        the held-out effort error worse by this much at most, plus what its parameters fitted
+        on one fold add (``n_params / n``); and the held-out error must fall by more than it
+        for the effects added to count as explaining it (:attr:`heldout_gain`). One value for
+        the three, which were two fields of the same value (the position's, set by hand in
+        commit 3998456; the effort's, tuned on the shared DC motor's step run and the second
+        simulator's tuning seeds, commits cdaf206, cde39a0). Tuned.
     quantum_period_tolerance : float
         Closed-loop search. A spatial period within this fraction of a small multiple of the
         sensor quantum is the sensor's staircase, and within it of another effect's period is
@@ -397,9 +394,13 @@ class DiagnoseSettings:
         Noise floor. Lower bound of the free-run noise floor, in units of the measured sensor
         noise. Tuned: set by hand with the first search (commit 90b5a80).
     floor_factor : float
-        Verdict. A residual within this multiple of the free-run noise floor is at the floor
-        (also: the mode comparison is skipped when the effort's loop is there already). Tuned:
-        set by hand (commit 3998456).
+        Noise floor and verdict. A residual within this multiple of the free-run noise floor is
+        at the floor: the verdict's "at the floor"; the mode comparison is skipped when the
+        effort's loop is there already; and with an effort, once no force effect cuts the
+        held-out effort error, force effects are judged on the free-run position until its
+        residual is at the floor. One value for the three, which were two fields of the same
+        value (the verdict's, set by hand in commit 3998456; the position phase's, tuned on the
+        second simulator's tuning seeds in commit 8b6c1cf). Tuned.
     explained_share : float
         Verdict. Share of the residual's variance a structure must carry to be named. Not
         tuned: the larger part.
@@ -497,9 +498,7 @@ class DiagnoseSettings:
     one_block_worse: float = _setting(1.5, tuned=True, check=_AT_LEAST_1)
     negligible_size: float = _setting(0.5, tuned=True, check=_SHARE)
     negligible_residual_drop: float = _setting(0.5, tuned=True, check=_SHARE)
-    position_tolerance: float = _setting(0.02, tuned=True, check=_NONNEG)
-    effort_tolerance: float = _setting(0.02, tuned=True, check=_NONNEG)
-    position_phase_factor: float = _setting(1.5, tuned=True, check=_POSITIVE)
+    tolerance: float = _setting(0.02, tuned=True, check=_NONNEG)
     quantum_period_tolerance: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
     quantum_multiples: tuple[int, ...] = _setting((1, 2, 3, 4), tuned=False, check=_COUNTS)
     eval_box: float = _setting(2.0, tuned=True, check=_AT_LEAST_1)
@@ -609,10 +608,9 @@ class DiagnoseSettings:
     @property
     def heldout_gain(self) -> float:
         """The held-out position error must fall by more than this fraction for the effects
-        added to count as explaining it: :attr:`position_tolerance` itself, the search's
-        tolerance within which an effect may leave the free-run position (a change within it
-        is no change)."""
-        return self.position_tolerance
+        added to count as explaining it: :attr:`tolerance` itself, within which a change of a
+        prediction error is no change."""
+        return self.tolerance
 
 
 DEFAULT_SETTINGS = DiagnoseSettings()
