@@ -150,16 +150,13 @@ def test_inverse_dynamics_finds_a_cogging_period_continuously():
 
 def test_inverse_dynamics_finds_a_cogging_period_longer_than_half_the_stroke():
     """A ripple whose period is 0.7 of the stroke (1.4 periods over it): the period is searched
-    up to the stroke (``settings.min_periods_in_stroke``), found within 2 %, and the
+    up to the stroke (a periodic force's constraint), found within 2 %, and the
     direction-independent ripple explains the held-out effort better than a friction level
     varying along the stroke with the same period (which changes sign with the motion). With
     periods searched only up to half the stroke, the second simulator's cogging/12 (0.70 of its
     stroke) was named a position-dependent friction."""
-    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
-
     stroke = float(np.ptp(_reference(duration=10.0).x))
     period = 0.7 * stroke
-    assert period <= stroke / DEFAULT_SETTINGS.min_periods_in_stroke
     idim, base, p = _cogging_fit(period)
     assert describe_parameters("cogging", p, "N")["period_m"] == pytest.approx(period, rel=0.02)
     sse_base, _ = idim.cv_sse(("coulomb_friction",), base)

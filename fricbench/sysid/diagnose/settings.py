@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 51 today; the one-method issue's target is at most 15.**
+**Tuned values: 50 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -381,10 +381,6 @@ class DiagnoseSettings:
     compliance_start_iterations : int
         Effects (compliance). Iterations of the refinement of a start with the loop free (runs
         without an effort). Not tuned: a budget.
-    min_periods_in_stroke : float
-        Effects (cogging). Fewest periods of a periodic force the stroke must cover for it to
-        be searched (a ripple is told from a friction level by the direction of motion, not by
-        the number of periods). Tuned on the second simulator's tuning seeds (2, then 1).
     bound_tolerance : float
         Effects. A parameter within this fraction of a bound (of the span; of the bound itself
         for a log-scaled one) ended on it: the trust-region solver keeps its iterates inside
@@ -567,7 +563,6 @@ class DiagnoseSettings:
     compliance_band_share_min: float = _setting(0.25, tuned=True, check=_SHARE)
     compliance_start_shapes_per_loop: int = _setting(6, tuned=False, check=_COUNT)
     compliance_start_iterations: int = _setting(25, tuned=False, check=_COUNT)
-    min_periods_in_stroke: float = _setting(1.0, tuned=True, check=_POSITIVE)
     bound_tolerance: float = _setting(1e-3, tuned=True, check=_SHARE_OPEN)
 
     # -- the noise floor and the verdict ----------------------------------------------------------

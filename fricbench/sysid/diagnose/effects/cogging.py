@@ -12,7 +12,6 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.diagnose.signals import period_candidates
 
 
@@ -58,9 +57,10 @@ class Cogging(Effect):
         periods: list[float] = []
         for sgn in (1.0, -1.0):
             sel = moving & (np.sign(v) == sgn)
-            periods += period_candidates(prep.xf, r, sel, lo,
-                                         b.stroke / defaults().min_periods_in_stroke,
-                                         n_best=2)
+            # the plausibility constraint of a periodic force: a period within the stroke (a
+            # ripple is told from a friction level by the direction of motion, not by the
+            # number of periods, so one period is enough)
+            periods += period_candidates(prep.xf, r, sel, lo, b.stroke, n_best=2)
         uniq: list[float] = []
         for per in periods:
             if all(abs(per / q - 1.0) > 0.02 for q in uniq):
@@ -83,7 +83,7 @@ class Cogging(Effect):
         # shortest period: above the noise, and at least 4 samples at a typical speed
         lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
             np.abs(pr.vf[fast]))) if np.any(fast) else 1e-4)
-        hi = pr.stroke / defaults().min_periods_in_stroke
+        hi = pr.stroke  # a period within the stroke: the constraint of a periodic force
         base = tuple(e for e in effects if e != self.name)
         pb, _ = idim._solve(base, p, rows)
         resid = idim.u_dec - idim.predict(pb)
