@@ -134,49 +134,6 @@ def test_a_failed_screen_sends_a_friction_level_effect_to_a_real_fit() -> None:
             assert _fitted_anyway(name, 0.5) and _fitted_anyway(name, 100.0)
 
 
-def test_an_always_fitted_effect_found_negligible_is_fitted_again_only_on_a_promising_screen(
-) -> None:
-    """Once a real fit found an always-fitted effect negligible, a later step fits it again
-    only when its screen promises a cut (below ``settings.screen_promise``); other effects are
-    untouched."""
-    from fricbench.sysid.diagnose.search import _fitted_anyway
-    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
-
-    always = [n for n in effect_names() if get_effect(n).always_fitted]
-    assert always
-    for name in always:
-        seen = frozenset({name})
-        assert not _fitted_anyway(name, DEFAULT_SETTINGS.screen_promise, seen)
-        assert not _fitted_anyway(name, 1.0, seen)
-        assert _fitted_anyway(name, 0.99 * DEFAULT_SETTINGS.screen_promise, seen)
-        # another effect found negligible changes nothing for this one
-        assert _fitted_anyway(name, 1.0, frozenset({"force_offset"}))
-
-
-def test_an_output_effect_found_negligible_with_an_effort_is_not_fitted_again() -> None:
-    """With an effort, an output effect whose fit left it below ``settings.negligible_size`` of
-    the size it must reach is not fitted again at the later steps (its fit is the slow part of
-    each step) until the forces added since have halved the position residual it was judged
-    against;
-    the effects the run carries are still found."""
-    from fricbench.bench.diagnose_timing import benchmark_run
-    from fricbench.sysid.diagnose import diagnose
-
-    lines: list[str] = []
-    res = diagnose(benchmark_run(12_000, effort=True), log=lines.append)
-    assert res.mode == "effort"
-    assert {"coulomb_friction", "cogging"} <= set(res.effects)
-    skipped = {ln.split()[0] for ln in lines if "not fitted again" in ln}
-    assert skipped, "no output effect was found negligible on this run"
-    for name in skipped:
-        first_skip = next(i for i, ln in enumerate(lines)
-                          if ln.split()[:1] == [name] and "not fitted again" in ln)
-        fitted = [i for i, ln in enumerate(lines)
-                  if ln.split()[:1] == [name] and "held-out position error" in ln]
-        # fitted before it was found negligible (and again only once the residual halved)
-        assert fitted and min(fitted) < first_skip
-
-
 @pytest.mark.parametrize(("duration", "floor"), [(8.0, 0.5), (600.0, 6.0)])
 def test_a_thermal_time_constant_is_never_below_half_a_second(duration: float,
                                                              floor: float) -> None:

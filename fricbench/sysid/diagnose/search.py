@@ -495,8 +495,6 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
     floor = max(prediction_floor(model, prep, w), prep.noise.rms)
     reason = f"reached the maximum of {settings.max_steps} effects"
     by_position = False
-    # output effects a real fit found negligible, with the position rms left at that step
-    negligible: dict[str, float] = {}
     accepted: tuple[CandidateScore, GreyBox, np.ndarray] | None
     scores: list[CandidateScore]
     for _ in range(settings.max_steps):
@@ -528,17 +526,6 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                                         share >= settings.min_force_share, block_note)
                     proposals[name] = m.copy(plant=p_all, effects=effects)
                 else:
-                    if (name in negligible
-                            and cur.position_rms
-                            > settings.negligible_residual_drop * negligible[name]):
-                        # its fit at an earlier step found it negligible: the forces added since
-                        # leave the loop and the output path as they were. Not once they have
-                        # cut the residual it was judged against: an effect small beside a
-                        # missing friction's error may be most of what is left (the second
-                        # simulator's backlash/21: a 1 mrad gap, negligible beside the 42 mrad
-                        # the loop without Coulomb friction left, against 1 mrad after it)
-                        log(f"    {name:28s} not fitted again: negligible at an earlier step")
-                        continue
                     ratio, _ = _output_candidate(m, name, prep, b, w, cur.y)
                     fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
                                          None)
@@ -546,8 +533,6 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     size = _effect_position_size(m_new, name, prep, w, fitted.y)
                     sc = CandidateScore(name, n_par, ratio, "position", size / floor,
                                         size >= min_position_size(settings, name) * floor)
-                    if size < settings.negligible_size * min_position_size(settings, name) * floor:
-                        negligible[name] = cur.position_rms
                     proposals[name] = m_new
                 scores.append(sc)
                 log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
@@ -842,17 +827,9 @@ _Variant = tuple[float, _Probe, np.ndarray]
 # Effects with Effect.always_fitted are fitted for real at every step, whatever their screen.
 
 
-def _fitted_anyway(name: str, ratio: float, negligible: frozenset[str] = frozenset()) -> bool:
-    """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``).
-
-    An always-fitted effect that a real fit at an earlier step found negligible
-    (``negligible``) is fitted again only when its screen promises a cut: a later step adds a
-    force to the same loop, and the reason to fit it whatever its screen (its screen runs under
-    a loop that may be far off, or linearises a stick-slip response) was met by that fit.
-    """
+def _fitted_anyway(name: str, ratio: float) -> bool:
+    """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``)."""
     effect = get_effect(name)
-    if name in negligible and ratio >= defaults().screen_promise:
-        return False
     return effect.always_fitted or (effect.fitted_when_screen_fails
                                     and ratio > defaults().screen_failed)
 
@@ -1079,7 +1056,6 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
     reason = f"reached the maximum of {settings.max_steps} effects"
     # the runners-up of the previous step and their fold fits (each restarts from its own)
     runners_up: dict[str, dict[int, PositionFitResult]] = {}
-    negligible: set[str] = set()
     for _ in range(settings.max_steps):
         cur = steps[-1]
         m = cur.model
@@ -1147,12 +1123,12 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # and a periodic force, whose screen is no better (its linearised response to a
         # ripple misses how the ripple moves the stops of a stick-slip motion)
         chosen += [kv for kv in ranked[n_confirm:]
-                   if _fitted_anyway(kv[0], kv[1][0], frozenset(negligible))
+                   if _fitted_anyway(kv[0], kv[1][0])
                    or kv[0] in runners_up]
         for name, (ratio, _, _) in chosen:
             if (ratio >= 1.0 and len(steps) > 1
                     and name not in runners_up
-                    and not _fitted_anyway(name, ratio, frozenset(negligible))):
+                    and not _fitted_anyway(name, ratio)):
                 continue
             heldout = 0.0
             cand_blocks = np.zeros(0)
@@ -1215,8 +1191,6 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                     effort_note += " rejected"
             scores.append(sc)
             confirmed[name] = fits
-            if size < settings.negligible_size * min_position_size(settings, name) * floor:
-                negligible.add(name)
             log(f"    fit    {name:28s} held-out position error x{rho:.3f} ({n_par} par), "
                 f"size {size / floor:.2f} x floor{effort_note}"
                 + (f" (one block left out: x{heldout / max(base_heldout, 1e-300):.3f} with it)"

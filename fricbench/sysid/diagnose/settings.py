@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 50 today; the one-method issue's target is at most 15.**
+**Tuned values: 47 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -161,15 +161,6 @@ class DiagnoseSettings:
         Closed-loop search. The block left out must be predicted at least this much worse by
         the candidate (squared error ratio): a block whose error it hardly changes does not go
         against the others. Tuned on the second simulator's tuning seeds (commit 93e6bf4).
-    negligible_size : float
-        Closed-loop search. A real fit whose effect moves the position by less than this
-        fraction of the size it must reach (``search.min_position_size``) found the effect
-        negligible on this run: it is not fitted again unless its screen promises a cut. Tuned
-        (a saving of time, checked on the second simulator's tuning seeds; commit da50413).
-    negligible_residual_drop : float
-        Closed-loop search. With an effort, an output effect found negligible is fitted again
-        once the position rms has fallen below this fraction of the rms it was found
-        negligible against. Tuned on the second simulator's tuning seeds (commit 5518110).
     tolerance : float
         Closed-loop search and verdict. A change of a prediction error within this fraction is
         no change: an effect may make the free-run position prediction worse by this much at
@@ -201,10 +192,6 @@ class DiagnoseSettings:
         grow by more than this factor has left the range where the effect acts linearly:
         effects with ``Effect.fitted_when_screen_fails`` are then fitted for real. Tuned on the
         second simulator's tuning seeds (commit e72caca).
-    screen_promise : float
-        Closed-loop search (no effort). A linearised screen ratio below this promises a cut
-        worth a real fit again (of an effect found negligible). Tuned (a saving of time,
-        checked on the second simulator's tuning seeds; commit da50413).
     trust_walks : int
         Closed-loop search. How many times a position fit moves a trust region a parameter
         ended on (:meth:`~fricbench.sysid.diagnose.models.PositionFit.run`). Not tuned: a
@@ -492,15 +479,12 @@ class DiagnoseSettings:
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
     one_block_majority: float = _setting(0.75, tuned=True, check=_SHARE)
     one_block_worse: float = _setting(1.5, tuned=True, check=_AT_LEAST_1)
-    negligible_size: float = _setting(0.5, tuned=True, check=_SHARE)
-    negligible_residual_drop: float = _setting(0.5, tuned=True, check=_SHARE)
     tolerance: float = _setting(0.02, tuned=True, check=_NONNEG)
     quantum_period_tolerance: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
     quantum_multiples: tuple[int, ...] = _setting((1, 2, 3, 4), tuned=False, check=_COUNTS)
     eval_box: float = _setting(2.0, tuned=True, check=_AT_LEAST_1)
     refit_box: float = _setting(3.0, tuned=True, check=_AT_LEAST_1)
     screen_failed: float = _setting(2.0, tuned=True, check=_POSITIVE)
-    screen_promise: float = _setting(0.9, tuned=True, check=_POSITIVE)
     trust_walks: int = _setting(3, tuned=False, check=_COUNT0)
 
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------
