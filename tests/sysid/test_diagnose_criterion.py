@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from fricbench.sysid.diagnose.criterion import (
+    block_consistency,
     criterion,
     criterion_change,
     described_sd,
@@ -53,6 +54,34 @@ def test_the_criterion_trades_error_against_parameters() -> None:
     assert criterion_change(0.95, 1.0, 3, 2, 1000.0, 2.0) < 0.0  # on many independent samples
     assert criterion_change(math.inf, 1.0, 3, 2, 10.0, 2.0) == math.inf
     assert criterion(1.0, 100, 10.0, 2, 2.0) == pytest.approx(10 * math.log(0.01) + 4)
+
+
+def test_a_cut_consistent_over_the_blocks_passes_and_a_trade_does_not() -> None:
+    """The block consistency (one-sided Wilcoxon signed-rank of the per-block cuts): an effect
+    that cuts every block it acts on passes at the detection level whatever the untouched
+    blocks do; one that cuts half the blocks and worsens the others as much does not, though
+    its total cut is the same 30 %."""
+    rng = np.random.default_rng(5)
+    base = rng.uniform(1.0, 2.0, 20)
+    true = base.copy()
+    true[::2] *= 0.4  # acts on half the blocks
+    true[1::2] *= 1.0 + 1e-3 * rng.standard_normal(10)  # barely moves the others
+    trade = base.copy()
+    trade[:10] *= 0.1
+    trade[10:] *= 0.7 + 0.6 * base[:10].sum() / base[10:].sum()  # the same 30 % in all
+    assert trade.sum() / base.sum() == pytest.approx(0.7)
+    assert true.sum() / base.sum() == pytest.approx(0.7, abs=0.03)
+    level = 0.0228  # Phi(-2): the detection rule's one-sided level
+    p_true = block_consistency(true, base)
+    p_trade = block_consistency(trade, base)
+    assert p_true is not None and p_true < level
+    assert p_trade is not None and p_trade > level
+    # a block left out does not count, and fewer than 4 differing blocks give no test
+    assert block_consistency(true, base, left_out=0) is not None
+    assert block_consistency(base[:3] * 0.5, base[:3]) is None
+    same = base.copy()
+    same[:3] *= 0.5
+    assert block_consistency(same, base) is None  # 17 blocks equal: 3 differ
 
 
 def test_covariance_is_least_squares_closed_form_on_white_noise() -> None:

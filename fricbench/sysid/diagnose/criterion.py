@@ -43,9 +43,9 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["effective_samples", "criterion", "criterion_change", "parameter_covariance",
-           "described_sd", "kept_columns", "held_covariance", "conditional_sd", "size_over_sd",
-           "least_detected", "UNIDENTIFIED"]
+__all__ = ["effective_samples", "criterion", "criterion_change", "block_consistency",
+           "parameter_covariance", "described_sd", "kept_columns", "held_covariance",
+           "conditional_sd", "size_over_sd", "least_detected", "UNIDENTIFIED"]
 
 UNIDENTIFIED = 1e100
 """Variance factor given to a direction of the parameters the data do not determine."""
@@ -97,6 +97,43 @@ def criterion_change(sse_new: float, sse_old: float, k_new: int, k_old: int, n_e
     if not (math.isfinite(sse_old) and sse_old > 0.0):
         return -math.inf if math.isfinite(sse_new) else math.inf
     return n_eff * math.log(max(sse_new, 1e-300) / sse_old) + penalty * (k_new - k_old)
+
+
+def block_consistency(cand: np.ndarray, base: np.ndarray, left_out: int | None = None
+                      ) -> float | None:
+    """How likely chance alone makes a candidate's held-out cut as one-sided over the blocks.
+
+    A true effect cuts the held-out error wherever it acts, and barely moves it elsewhere; a
+    flexible effect that absorbs a misfit of the loop model trades blocks (better where the
+    misfit sat, worse where its shape does not belong), which a sum of squared errors does
+    not see. The one-sided Wilcoxon signed-rank test (Wilcoxon 1945; ``scipy.stats.wilcoxon``)
+    of the per-block cuts ``base - cand`` asks whether they lean to one side: small cuts of
+    blocks the effect does not touch rank low and weigh little. Blocks whose errors are equal
+    (the effect does nothing there) and a block left out of the judgement
+    (``search.block_left_out``) do not count.
+
+    Parameters
+    ----------
+    cand, base : ndarray
+        Squared held-out error per block of the candidate and of the model without it.
+    left_out : int, optional
+        A block left out of the judgement.
+
+    Returns
+    -------
+    float or None
+        The test's p-value (small: consistent), or None when fewer than 4 blocks differ (no
+        test: the smallest p-value of 3 is 1/8).
+    """
+    from scipy.stats import wilcoxon
+
+    diff = np.asarray(base, dtype=float) - np.asarray(cand, dtype=float)
+    if left_out is not None:
+        diff = np.delete(diff, left_out)
+    diff = diff[np.isfinite(diff) & (diff != 0.0)]
+    if diff.size < 4:
+        return None
+    return float(wilcoxon(diff, alternative="greater").pvalue)
 
 
 def parameter_covariance(jac: np.ndarray, residual: np.ndarray, n_eff: float) -> np.ndarray:

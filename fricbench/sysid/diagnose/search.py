@@ -39,9 +39,11 @@ from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
+from scipy.stats import norm
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController
+from fricbench.sysid.diagnose.criterion import block_consistency
 from fricbench.sysid.diagnose.effects import (
     Effect,
     describe_parameters,
@@ -239,10 +241,11 @@ def _blocks(prep: Prepared) -> list[tuple[int, int]]:
     return fold_blocks(prep.folds)
 
 
-def _block_sse(y: np.ndarray, prep: Prepared, fold: int) -> np.ndarray:
+def _block_sse(y: np.ndarray, prep: Prepared, fold: int, x: np.ndarray | None = None
+               ) -> np.ndarray:
     """Squared position error of each block of ``fold``, in time order (inf where ``y`` is
-    not finite)."""
-    r = prep.x - y
+    not finite); of the measured ``x`` (default: the position ``prep.x``)."""
+    r = (prep.x if x is None else x) - y
     out = [sumsq(r[a:z]) if np.all(np.isfinite(r[a:z])) else math.inf
            for a, z in _blocks(prep) if prep.folds[a] == fold]
     return np.asarray(out, dtype=float)
@@ -293,6 +296,25 @@ def _judged_ratio(total_c: float, total_b: float, cand: np.ndarray, base: np.nda
                        f"x{ratio:.3f}")
 
 
+def _check_consistency(sc: CandidateScore, cand: np.ndarray, base: np.ndarray,
+                       left_out: int | None, settings: DiagnoseSettings) -> None:
+    """Reject (``sc.size_ok = False``, said in its note) an effect that is not friction, judged
+    on the free-run position, whose held-out cut is not consistent over the run's blocks
+    (:func:`~fricbench.sysid.diagnose.criterion.block_consistency` above the detection rule's
+    one-sided level ``Phi(-settings.detection_sd)``, 2.3 %): a flexible effect trading blocks
+    absorbs a misfit of the loop model. Friction is the suspect of every axis and is judged by
+    its cut alone."""
+    if get_effect(sc.effect).friction or not sc.judged_on.startswith("position"):
+        return
+    p = block_consistency(cand, base, left_out)
+    if p is None or p <= float(norm.sf(settings.detection_sd)):
+        return
+    sc.size_ok = False
+    sc.note += ("; " if sc.note else "") + (
+        f"rejected: its held-out cut is not consistent over the run's blocks (Wilcoxon "
+        f"signed-rank p = {p:.3g} > {float(norm.sf(settings.detection_sd)):.3g})")
+
+
 # -- with an effort -------------------------------------------------------------------------------
 def _output_fit(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
                 mask: np.ndarray | None, max_iter: int = 12) -> PositionFitResult:
@@ -309,11 +331,15 @@ def _output_fit(model: GreyBox, prep: Prepared, b: Bounds, w: np.ndarray | None,
 
 
 def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
-                      w: np.ndarray | None, y: np.ndarray) -> tuple[float, list[GreyBox]]:
-    """Held-out position ratio of an output effect added to a fixed model."""
+                      w: np.ndarray | None, y: np.ndarray
+                      ) -> tuple[float, list[GreyBox], np.ndarray, np.ndarray]:
+    """Held-out position ratio of an output effect added to a fixed model, its fold fits, and
+    the squared held-out position error per block with and without it."""
     base_sse = 0.0
     cand_sse = 0.0
     fits = []
+    cand_blocks: list[np.ndarray] = []
+    base_blocks: list[np.ndarray] = []
     # a load encoder: its held-out error joins the motor's, as in the fit (PositionFit); the
     # deflection of a coupling shows there, where the loop does not hold it down
     base_load = None if prep.x_load is None else _load_positions([model], prep, w)[0]
@@ -325,11 +351,17 @@ def _output_candidate(model: GreyBox, name: str, prep: Prepared, b: Bounds,
         fits.append(res.model)
         base_sse += _position_sse(y, prep, ~train)
         cand_sse += _position_sse(res.y, prep, ~train)
+        cand_blocks.append(_block_sse(res.y, prep, k))
+        base_blocks.append(_block_sse(y, prep, k))
         if base_load is not None and prep.x_load is not None:
             cand_load = _load_positions([res.model], prep, w)[0]
             base_sse += _load_sse(base_load, prep, ~train)
             cand_sse += _load_sse(cand_load, prep, ~train)
-    return cand_sse / max(base_sse, 1e-300), fits
+            # the blocks judge what the sums judge: both encoders
+            cand_blocks[-1] = cand_blocks[-1] + _block_sse(cand_load, prep, k, prep.x_load)
+            base_blocks[-1] = base_blocks[-1] + _block_sse(base_load, prep, k, prep.x_load)
+    return (cand_sse / max(base_sse, 1e-300), fits, np.concatenate(cand_blocks),
+            np.concatenate(base_blocks))
 
 
 def _load_positions(models: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None
@@ -526,17 +558,20 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                                         share >= settings.min_force_share, block_note)
                     proposals[name] = m.copy(plant=p_all, effects=effects)
                 else:
-                    ratio, _ = _output_candidate(m, name, prep, b, w, cur.y)
+                    ratio, _, cand_blocks, base_pos_blocks = _output_candidate(
+                        m, name, prep, b, w, cur.y)
                     fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
                                          None)
                     m_new = fitted.model
                     size = _effect_position_size(m_new, name, prep, w, fitted.y)
                     sc = CandidateScore(name, n_par, ratio, "position", size / floor,
                                         size >= min_position_size(settings, name) * floor)
+                    _check_consistency(sc, cand_blocks, base_pos_blocks, None, settings)
                     proposals[name] = m_new
                 scores.append(sc)
                 log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
-                    f"({n_par} par){'' if sc.size_ok else ' too small'}"
+                    f"({n_par} par)"
+                    f"{'' if sc.size_ok or 'rejected' in sc.note else ' too small'}"
                     f"{f' ({sc.note})' if sc.note else ''}")
             # force effects first: an output effect cannot change the effort, and while a force
             # effect is missing the position residual it leaves can look like an output effect.
@@ -1172,12 +1207,14 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
             size = min(sizes)
             sc = CandidateScore(name, n_par, rho, "position", size / floor,
                                 size >= min_position_size(settings, name) * floor, note)
-            effort_note = ""
+            _check_consistency(sc, cand_blocks, base_blocks, left_out, settings)
+            effort_note = ", not consistent over the blocks" if not sc.size_ok and (
+                "not consistent" in sc.note) else ""
             if effort_check is not None and get_effect(name).kind == "force":
                 if effort_base is None:  # the model without the candidate: once per step
                     effort_base, _ = effort_check.cv_sse(_forces(m), m.plant)
                 effort_ratio = _effort_check_ratio(effort_check, effort_base, fits, name)
-                effort_note = f", effort x{effort_ratio:.3f}"
+                effort_note += f", effort x{effort_ratio:.3f}"
                 if effort_ratio > 1.0 + _effort_check_tolerance(prep, n_par):
                     # the logged effort is a measured force even where the law computed from it
                     # is not the drive's: a force it contradicts is no force of the axis (a
