@@ -307,12 +307,13 @@ def _check_consistency(sc: CandidateScore, cand: np.ndarray, base: np.ndarray,
     if get_effect(sc.effect).friction or not sc.judged_on.startswith("position"):
         return
     p = block_consistency(cand, base, left_out)
-    if p is None or p <= float(norm.sf(settings.detection_sd)):
+    level = float(norm.sf(settings.detection_sd))
+    if p is None or p <= level:
         return
     sc.size_ok = False
     sc.note += ("; " if sc.note else "") + (
         f"rejected: its held-out cut is not consistent over the run's blocks (Wilcoxon "
-        f"signed-rank p = {p:.3g} > {float(norm.sf(settings.detection_sd)):.3g})")
+        f"signed-rank p = {p:.3g} > {level:.3g})")
 
 
 # -- with an effort -------------------------------------------------------------------------------
