@@ -301,13 +301,15 @@ def _check_consistency(sc: CandidateScore, cand: np.ndarray, base: np.ndarray,
     """Reject (``sc.size_ok = False``, said in its note) an effect that is not friction, judged
     on the free-run position, whose held-out cut is not consistent over the run's blocks
     (:func:`~fricbench.sysid.diagnose.criterion.block_consistency` above the detection rule's
-    one-sided level ``Phi(-settings.detection_sd)``, 2.3 %): a flexible effect trading blocks
-    absorbs a misfit of the loop model. Friction is the suspect of every axis and is judged by
-    its cut alone."""
+    level ``2 Phi(-settings.detection_sd)``, 4.6 %): a flexible effect trading blocks absorbs
+    a misfit of the loop model. The level is the detection rule's false-detection rate (a size
+    within ``detection_sd`` standard deviations of zero on either side), so one rate governs
+    every "is it there" decision. Friction is the suspect of every axis and is judged by its
+    cut alone."""
     if get_effect(sc.effect).friction or not sc.judged_on.startswith("position"):
         return
     p = block_consistency(cand, base, left_out)
-    level = float(norm.sf(settings.detection_sd))
+    level = float(2.0 * norm.sf(settings.detection_sd))
     if p is None or p <= level:
         return
     sc.size_ok = False
