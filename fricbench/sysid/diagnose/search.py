@@ -83,10 +83,10 @@ def effects_tried(settings: DiagnoseSettings) -> tuple[str, ...]:
 
 
 def min_position_size(settings: DiagnoseSettings, effect: str) -> float:
-    """Smallest rms position contribution of ``effect``, in noise floors."""
-    if get_effect(effect).friction:
-        return settings.min_position_share
-    return max(settings.min_position_share, settings.min_position_share_other)
+    """Smallest rms position contribution of ``effect``, in noise floors: the same for every
+    effect (a flexible effect that fits what the loop model misses is the block consistency's
+    to reject, :func:`_check_consistency`)."""
+    return settings.min_position_share
 
 
 def required_gain(settings: DiagnoseSettings, n_params: int, effect: str | None = None,

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 47 today; the one-method issue's target is at most 15.**
+**Tuned values: 46 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -135,14 +135,10 @@ class DiagnoseSettings:
         Closed-loop search. Smallest rms force of a force effect relative to the rms effort
         (with an effort). Tuned: set by hand with the first search (commit 90b5a80).
     min_position_share : float
-        Closed-loop search. Smallest rms position contribution of a friction effect, in noise
-        floors. Tuned: set by hand with the first search (commit 90b5a80).
-    min_position_share_other : float
-        Closed-loop search. The same for an effect that is not friction: its whole signature
-        in the free-run position must stand above the noise floor, else a flexible effect that
-        cuts the held-out error is fitting what the loop model misses. Tuned on the second
-        simulator's tuning seeds (1.0 in commit 665d33b, raised to 1.5 after a false thermal
-        drift at 1.19 floors; the drifts present were named at 2.5 floors and more).
+        Closed-loop search. Smallest rms position contribution of an effect, in noise floors.
+        Tuned: set by hand with the first search (commit 90b5a80). An effect that is not
+        friction needed 1.5 floors (``min_position_share_other``, tuned after a false thermal
+        drift at 1.19 floors) until the block consistency took over that guard.
     max_steps : int
         Closed-loop search. Most effects added. Not tuned: a budget.
     n_confirm : int
@@ -473,7 +469,6 @@ class DiagnoseSettings:
     gain_per_param: float = _setting(0.01, tuned=True, check=_NONNEG)
     min_force_share: float = _setting(0.005, tuned=True, check=_NONNEG)
     min_position_share: float = _setting(0.5, tuned=True, check=_NONNEG)
-    min_position_share_other: float = _setting(1.5, tuned=True, check=_NONNEG)
     max_steps: int = _setting(8, tuned=False, check=_COUNT0)
     n_confirm: int = _setting(3, tuned=False, check=_COUNT)
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
