@@ -54,9 +54,14 @@ def test_one_block_against_all_the_others_is_left_out() -> None:
 
 
 def test_no_block_is_left_out_without_a_clear_majority() -> None:
+    from scipy.stats import binom, norm
+
     rng = np.random.default_rng(3)
     base = _errors(rng)
-    n_wins = int(np.ceil(DEFAULT_SETTINGS.one_block_majority * 19)) - 1  # one short of the majority
+    # one short of the majority a sign test at the detection rule's rate asks of 19 others
+    level = 2.0 * norm.sf(DEFAULT_SETTINGS.detection_sd)
+    n_wins = min(k for k in range(20) if binom.sf(k - 1, 19, 0.5) <= level) - 1
+    assert n_wins == 13  # 14 of 19 by chance: 3.2 %; 13 of 19: 8.4 %
     cand = base.copy()
     cand[1:1 + n_wins] *= 0.1
     cand[1 + n_wins:] *= 1.05

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 47 today; the one-method issue's target is at most 15.**
+**Tuned values: 46 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -151,12 +151,6 @@ class DiagnoseSettings:
     candidates : tuple of str or None
         Closed-loop search. The effects tried (None: the whole library, as registered when
         the search runs). Not tuned: a choice of the user.
-    one_block_majority : float
-        Closed-loop search. Share of the other held-out blocks a candidate must predict better
-        before the one block it predicts worst is left out of its held-out ratio
-        (:func:`~fricbench.sysid.diagnose.search.block_left_out`; a sign test: 15 of 19 by
-        chance has odds below 1 %). Tuned on the second simulator's tuning seeds (commit
-        93e6bf4).
     one_block_worse : float
         Closed-loop search. The block left out must be predicted at least this much worse by
         the candidate (squared error ratio): a block whose error it hardly changes does not go
@@ -477,7 +471,6 @@ class DiagnoseSettings:
     max_steps: int = _setting(8, tuned=False, check=_COUNT0)
     n_confirm: int = _setting(3, tuned=False, check=_COUNT)
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
-    one_block_majority: float = _setting(0.75, tuned=True, check=_SHARE)
     one_block_worse: float = _setting(1.5, tuned=True, check=_AT_LEAST_1)
     tolerance: float = _setting(0.02, tuned=True, check=_NONNEG)
     quantum_period_tolerance: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
