@@ -43,7 +43,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["effective_samples", "criterion", "criterion_change", "block_consistency",
+__all__ = ["effective_samples", "criterion", "criterion_change", "false_detection_rate",
+           "block_consistency",
            "parameter_covariance", "described_sd", "kept_columns", "held_covariance",
            "conditional_sd", "size_over_sd", "least_detected", "UNIDENTIFIED"]
 
@@ -97,6 +98,16 @@ def criterion_change(sse_new: float, sse_old: float, k_new: int, k_old: int, n_e
     if not (math.isfinite(sse_old) and sse_old > 0.0):
         return -math.inf if math.isfinite(sse_new) else math.inf
     return n_eff * math.log(max(sse_new, 1e-300) / sse_old) + penalty * (k_new - k_old)
+
+
+def false_detection_rate(detection_sd: float) -> float:
+    """The detection rule's false-detection rate, ``2 Phi(-detection_sd)`` (4.6 % at 2 sd): how
+    often a size within ``detection_sd`` standard deviations of zero, on either side, is taken
+    for an effect. Every test that asks "is it there" (the block consistency, the one block
+    left out) runs at this rate."""
+    from scipy.stats import norm
+
+    return float(2.0 * norm.sf(detection_sd))
 
 
 def block_consistency(cand: np.ndarray, base: np.ndarray, left_out: int | None = None

@@ -39,11 +39,11 @@ from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
-from scipy.stats import binom, norm
+from scipy.stats import binom
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController
-from fricbench.sysid.diagnose.criterion import block_consistency
+from fricbench.sysid.diagnose.criterion import block_consistency, false_detection_rate
 from fricbench.sysid.diagnose.effects import (
     Effect,
     describe_parameters,
@@ -278,14 +278,13 @@ def block_left_out(cand: np.ndarray, base: np.ndarray) -> int | None:
         return None
     diff = cand - base
     j = int(np.argmax(diff))
+    if not (cand[j] >= defaults().one_block_worse * base[j] and diff[j] > 0.0):
+        return None
     others = np.delete(diff, j)
     better = int(np.sum(others < 0.0))
     # P(at least `better` of the others better | each a fair coin)
     chance = float(binom.sf(better - 1, others.size, 0.5))
-    if (cand[j] >= defaults().one_block_worse * base[j] and diff[j] > 0.0
-            and chance <= float(2.0 * norm.sf(defaults().detection_sd))):
-        return j
-    return None
+    return j if chance <= false_detection_rate(defaults().detection_sd) else None
 
 
 def _judged_ratio(total_c: float, total_b: float, cand: np.ndarray, base: np.ndarray
@@ -315,7 +314,7 @@ def _check_consistency(sc: CandidateScore, cand: np.ndarray, base: np.ndarray,
     if get_effect(sc.effect).friction or not sc.judged_on.startswith("position"):
         return
     p = block_consistency(cand, base, left_out)
-    level = float(2.0 * norm.sf(settings.detection_sd))
+    level = false_detection_rate(settings.detection_sd)
     if p is None or p <= level:
         return
     sc.size_ok = False
