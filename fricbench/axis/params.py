@@ -176,6 +176,11 @@ class Axis:
         p[K.P_PD_SIN] = e.friction_variation * math.cos(e.friction_variation_phase)
         p[K.P_PD_COS] = e.friction_variation * math.sin(e.friction_variation_phase)
         p[K.P_PD_PERIOD] = e.friction_variation_period
+        n_knots = len(e.friction_profile)
+        p[PL.PD_NKNOTS] = n_knots
+        p[PL.PD_START] = e.friction_profile_start
+        p[PL.PD_SPAN] = e.friction_profile_span
+        p[PL.PD_KNOT0:PL.PD_KNOT0 + n_knots] = e.friction_profile
         p[K.P_TH_AMP] = e.thermal_drift
         p[K.P_TH_TAU] = e.thermal_time_constant
         p[PL.TH_VHEAT] = e.thermal_heating_speed

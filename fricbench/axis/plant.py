@@ -18,11 +18,17 @@ One sample of period ``Ts`` (zero-order hold on the actuator command)::
 
 with the friction level in the direction ``sigma = sgn(v)``, scaled along the stroke::
 
-    s(x)     = max(1 + g (x - x_c) + a sin(2 pi x / P) + b cos(2 pi x / P), 0)
+    s(x)     = max(1 + g (x - x_c) + a sin(2 pi x / P) + b cos(2 pi x / P) + l(x), 0)
     fc_dir   = max(fc + sigma dfc / 2, 0) ,  fs_dir = fc_dir + fs_excess
     F_f      = s(x) sigma [fc_dir + (fs_dir - fc_dir) exp(-(|v|/vs)^delta)]   static laws
     F_cog    = A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)
     fv_dir   = fv + sigma dB / 2
+
+``l(x)`` is a friction profile along the stroke (off while its knot count is 0): the relative
+level changes ``l_0 .. l_{n-1}`` at ``n`` equally spaced knots from ``x_0`` over a span ``L``
+(``x_i = x_0 + i L / (n - 1)``), linear between knots and held at the end knots' values beyond
+them. A worn or dirty stretch of the guides, a gradient and a bump are all of that form; up
+to :data:`PD_MAX_KNOTS` knots.
 
 Static laws use the implicit update of Kikuuwe et al. (2005), so that stiction holds exactly;
 LuGre and Dahl integrate their bristle state exactly for a velocity frozen over a substep.
@@ -122,8 +128,11 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
 (TS, NSUB, M, B, KT, IMAX, DELAY, FKIND, FC, DFC, FS_EXCESS, VS, DELTA, FV, DB, SIGMA0, SIGMA1,
  OFFSET, COG_SIN, COG_COS, COG_PERIOD, PD_GRAD, PD_SIN, PD_COS, PD_PERIOD, PD_CENTER,
  BACKLASH, TH_AMP, TH_TAU, QUANT, NOISE, MEAS_TABLE, COMP_RATIO, COMP_FREQ, COMP_ZETA,
- LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD, COMP_B_MOTOR) = range(40)
-N_PLANT = 40
+ LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD, COMP_B_MOTOR, PD_START, PD_SPAN, PD_NKNOTS,
+ PD_KNOT0) = range(44)
+PD_MAX_KNOTS = 12
+"""Most knots of the friction profile ``l(x)`` (columns ``pd_profile_0`` ..)."""
+N_PLANT = PD_KNOT0 + PD_MAX_KNOTS
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
@@ -131,7 +140,8 @@ PLANT_NAMES = (
     "pd_center", "backlash", "thermal_amplitude", "thermal_tau", "quantization", "noise_std",
     "measure_table", "compliance_load_fraction", "compliance_frequency", "compliance_damping",
     "log_motor", "thermal_heating_speed", "backlash_load_fraction",
-    "compliance_friction_load", "compliance_b_motor_share",
+    "compliance_friction_load", "compliance_b_motor_share", "pd_profile_start",
+    "pd_profile_span", "pd_profile_knots", *(f"pd_profile_{i}" for i in range(PD_MAX_KNOTS)),
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
@@ -147,8 +157,11 @@ N_PLANT_TWO_BODY = 38
 N_PLANT_LOAD_FRICTION = 39
 """Length of the plant row before the motor's share of the damping of a compliant axis with
 the friction on the load (padded by :func:`pad_row`)."""
+N_PLANT_UNPROFILED = 40
+"""Length of the plant row before the friction profile along the stroke (padded by
+:func:`pad_row`)."""
 OLDER_PLANT_LENGTHS = (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED, N_PLANT_TWO_BODY,
-                       N_PLANT_LOAD_FRICTION)
+                       N_PLANT_LOAD_FRICTION, N_PLANT_UNPROFILED)
 """Lengths of the earlier plant layouts :func:`pad_row` accepts (and stored rows may have)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
@@ -198,20 +211,21 @@ def pad_row(row: np.ndarray) -> np.ndarray:
     """A plant row of the current layout from one of an earlier layout.
 
     Rows of the rigid layout (32 entries), the compliant one (36), the one with the heating
-    speed (37), the one with the two-body backlash (38) and the one with the compliant axis's
-    friction on the load (39) are accepted: the entries added since (compliance, the logged
-    side, the thermal heating speed, the backlash's load fraction, the compliant axis's
-    friction on the load, the motor's share of its damping) are appended off, so an older row
-    keeps its meaning; a row of the current length is returned as a copy.
+    speed (37), the one with the two-body backlash (38), the one with the compliant axis's
+    friction on the load (39) and the one before the friction profile (40) are accepted: the
+    entries added since (compliance, the logged side, the thermal heating speed, the
+    backlash's load fraction, the compliant axis's friction on the load, the motor's share of
+    its damping, the friction profile) are appended off, so an older row keeps its meaning; a
+    row of the current length is returned as a copy.
     """
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
     if r.ndim != 1 or r.shape[0] not in OLDER_PLANT_LENGTHS:
         raise ValueError(f"row: expected a plant row of {N_PLANT} (or "
-                         f"{N_PLANT_LOAD_FRICTION}, {N_PLANT_TWO_BODY}, {N_PLANT_HEATED}, "
-                         f"{N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, got shape "
-                         f"{r.shape}")
+                         f"{N_PLANT_UNPROFILED}, {N_PLANT_LOAD_FRICTION}, {N_PLANT_TWO_BODY}, "
+                         f"{N_PLANT_HEATED}, {N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, "
+                         f"got shape {r.shape}")
     out = default_row()
     out[:r.shape[0]] = r
     return out
@@ -401,6 +415,10 @@ class Plant(NamedTuple):
     m_eff_load: float  # h / Gamma_vL: the mass a force held on the load accelerates
     inv_pos_cl: float  # 1 / (m_eff_load + h fv_dir) in each direction
     inv_neg_cl: float
+    pd_n: int  # knots of the friction profile l(x) (0: off)
+    pd_x0: float
+    pd_inv_step: float  # (n - 1) / L: knot intervals per metre
+    pd_knots: tuple[float, ...]  # PD_MAX_KNOTS entries, those past pd_n unused
 
 
 def constants(p: np.ndarray) -> Plant:
@@ -462,6 +480,12 @@ def constants(p: np.ndarray) -> Plant:
     if two_body:
         inv_pos_load = 1.0 / (m_load + h * max(b_load + p[FV] + 0.5 * p[DB], 0.0))
         inv_neg_load = 1.0 / (m_load + h * max(b_load + p[FV] - 0.5 * p[DB], 0.0))
+    # the friction profile: a single knot (or a span of 0) is a constant change of level
+    pd_n = min(max(int(p[PD_NKNOTS]), 0), PD_MAX_KNOTS)
+    pd_inv_step = (pd_n - 1) / p[PD_SPAN] if (pd_n > 1 and p[PD_SPAN] > 0.0) else 0.0
+    pd_knots = (p[PD_KNOT0], p[PD_KNOT0 + 1], p[PD_KNOT0 + 2], p[PD_KNOT0 + 3],
+                p[PD_KNOT0 + 4], p[PD_KNOT0 + 5], p[PD_KNOT0 + 6], p[PD_KNOT0 + 7],
+                p[PD_KNOT0 + 8], p[PD_KNOT0 + 9], p[PD_KNOT0 + 10], p[PD_KNOT0 + 11])
     return Plant(h, n_sub, m, b_impl, p[KT], p[IMAX], int(p[DELAY]), int(p[FKIND]), p[FC],
                  p[DFC], p[FS_EXCESS], p[VS], inv_vs, p[DELTA], p[FV], p[DB], inv_pos, inv_neg,
                  p[SIGMA0], p[SIGMA1], p[OFFSET], p[COG_SIN], p[COG_COS], cog_k, p[PD_GRAD],
@@ -471,7 +495,7 @@ def constants(p: np.ndarray) -> Plant:
                  cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5, heat, inv_vheat, th_gain,
                  two_body, m - m_load, p[B] - b_load, m_load, inv_pos_load, inv_neg_load,
                  b_load, load_fric, cl[0], cl[1], cl[2], cl[3], m_eff_load, inv_pos_cl,
-                 inv_neg_cl)
+                 inv_neg_cl, pd_n, p[PD_START], pd_inv_step, pd_knots)
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -481,7 +505,22 @@ def friction_scale(c: Plant, x: float) -> float:
     if c.pd_a != 0.0 or c.pd_b != 0.0:
         ph = c.pd_k * x
         s += c.pd_a * math.sin(ph) + c.pd_b * math.cos(ph)
+    if c.pd_n > 0:
+        s += profile_level(c, x)
     return max(s, 0.0)
+
+
+def profile_level(c: Plant, x: float) -> float:
+    """The friction profile ``l(x)``: linear between equally spaced knots, held beyond them."""
+    u = (x - c.pd_x0) * c.pd_inv_step
+    last = c.pd_n - 1
+    if u <= 0.0:
+        return c.pd_knots[0]
+    if not u < last:  # beyond the last knot (a NaN position too: never an index from it)
+        return c.pd_knots[last]
+    i = int(u)
+    frac = u - i
+    return c.pd_knots[i] + frac * (c.pd_knots[i + 1] - c.pd_knots[i])
 
 
 def levels(c: Plant, x: float, sigma: float) -> tuple[float, float]:
@@ -778,6 +817,7 @@ _expm = numba.njit(cache=True, fastmath=FASTMATH)(_expm)
 compliance_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_constants)
 compliance_load_constants = numba.njit(cache=True, fastmath=FASTMATH)(compliance_load_constants)
 constants = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(constants)
+profile_level = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(profile_level)
 friction_scale = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(friction_scale)
 levels = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(levels)
 position_force = numba.njit(cache=True, inline="always", fastmath=FASTMATH)(position_force)
@@ -822,7 +862,8 @@ __all__ = [
     "DELAY_MAX", "FASTMATH", "N_PLANT", "N_PLANT_COMPLIANT", "N_PLANT_RIGID", "N_PLANT_STATE",
     "PLANT_NAMES", "Plant",
     "actuate", "advance", "compliance_constants", "compliance_load_constants", "constants",
-    "default_row", "friction_scale",
+    "default_row", "friction_scale", "profile_level", "PD_MAX_KNOTS", "PD_START", "PD_SPAN",
+    "PD_NKNOTS", "PD_KNOT0", "N_PLANT_UNPROFILED",
     "levels", "load_position", "pad_row", "position_force", "sense", "sliding_force",
     "thermal_drift",
     "TS", "NSUB", "M", "B", "KT", "IMAX", "DELAY", "FKIND", "FC", "DFC", "FS_EXCESS", "VS",

@@ -18,6 +18,7 @@ from fricbench._validation import (
     check_range,
 )
 from fricbench.axis import kernel as K
+from fricbench.axis import plant as PL
 
 __all__ = ["ControllerParams", "Effects", "MechanicsParams"]
 
@@ -166,6 +167,16 @@ class Effects:
         Its spatial period, m.
     friction_variation_phase : float
         Its phase, rad.
+    friction_profile : tuple of float
+        A friction level of any shape along the stroke: the relative changes of the friction
+        levels (each -0.9 .. 2) at equally spaced knots from ``friction_profile_start`` over
+        ``friction_profile_span``, linear between knots and held beyond the end knots (a worn
+        or dirty stretch of the guides: ``(0, 0, 0.4, 0, 0)``). Empty (the default): off. At
+        most 12 knots (:data:`fricbench.axis.plant.PD_MAX_KNOTS`).
+    friction_profile_start : float
+        Position of the profile's first knot, m.
+    friction_profile_span : float
+        From the first knot to the last, m (> 0 with two knots or more).
     thermal_drift : float
         Thermal growth of the table position relative to the motor, m: the final growth
         ``d_inf`` of ``d(t) = d_inf (1 - exp(-t/tau))``, or with a heating speed the growth in
@@ -230,6 +241,9 @@ class Effects:
     friction_variation: float = 0.0
     friction_variation_period: float = 0.05
     friction_variation_phase: float = 0.0
+    friction_profile: tuple[float, ...] = ()
+    friction_profile_start: float = 0.0
+    friction_profile_span: float = 0.0
     thermal_drift: float = 0.0
     thermal_time_constant: float = 600.0
     thermal_heating_speed: float = 0.0
@@ -257,6 +271,7 @@ class Effects:
         check_range("friction_variation", self.friction_variation, 0.0, 0.9)
         check_positive("friction_variation_period", self.friction_variation_period, "m")
         check_finite("friction_variation_phase", self.friction_variation_phase)
+        self._check_profile()
         check_range("thermal_drift", self.thermal_drift, -1e-3, 1e-3, "m")
         check_positive("thermal_time_constant", self.thermal_time_constant, "s")
         check_nonneg("thermal_heating_speed", self.thermal_heating_speed, "m/s")
@@ -276,3 +291,23 @@ class Effects:
                 f"backlash_load_fraction={self.backlash_load_fraction:g} with "
                 f"compliance_load_fraction={self.compliance_load_fraction:g}: expected one of "
                 "the two (a two-body backlash on a compliant axis is not modelled)")
+
+    def _check_profile(self) -> None:
+        """The friction profile: a sequence of at most ``PD_MAX_KNOTS`` changes in -0.9 .. 2,
+        a finite start and, with two knots or more, a positive span."""
+        knots = self.friction_profile
+        if isinstance(knots, (str, bytes)) or not hasattr(knots, "__len__"):
+            raise ValueError(f"friction_profile={knots!r}: expected a sequence of relative "
+                             "friction level changes, one per knot")
+        if len(knots) > PL.PD_MAX_KNOTS:
+            raise ValueError(f"friction_profile: {len(knots)} knots, expected at most "
+                             f"{PL.PD_MAX_KNOTS}")
+        values = tuple(check_range(f"friction_profile[{i}]", v, -0.9, 2.0)
+                       for i, v in enumerate(knots))
+        # a TOML array arrives as a list: stored as a tuple, so the section stays hashable
+        object.__setattr__(self, "friction_profile", values)
+        check_finite("friction_profile_start", self.friction_profile_start)
+        if len(values) >= 2:
+            check_positive("friction_profile_span", self.friction_profile_span, "m")
+        else:
+            check_nonneg("friction_profile_span", self.friction_profile_span, "m")

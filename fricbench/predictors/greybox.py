@@ -74,7 +74,7 @@ def loop_inputs(x_ref: np.ndarray, ts: float) -> LoopInputs:
 
 
 def _plant_size(state: dict[str, torch.Tensor]) -> int:
-    """Stored plant-row length: the shared plant's, or the 19, 32, 36, 37, 38 or 39 entries of
+    """Stored plant-row length: the shared plant's, or the 19, 32, 36, 37, 38, 39 or 40 entries of
     earlier files."""
     stored = state.get("plant_")
     if stored is not None and stored.ndim == 1 and int(stored.shape[0]) in (

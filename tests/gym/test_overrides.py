@@ -146,7 +146,7 @@ def test_an_axis_or_task_that_contradicts_the_spec_is_refused() -> None:
 
 @pytest.mark.parametrize(("kwargs", "expected"), [
     ({"fcc": 400.0}, "fcc: unknown keyword; did you mean 'fc'?"),
-    ({"controler": {"kp": 200.0}}, "controler: unknown keyword; did you mean 'controller'?"),
+    ({"controler": {"kp": 200.0}}, "controler: unknown keyword; did you mean 'controller'"),
     ({"friction": {"fcc": 400.0}}, "friction.fcc: unknown key; did you mean 'fc'?; expected "
                                    "one of fc, fs, vs, delta, fv"),
     ({"friction": "stribek"}, "friction.id='stribek': unknown friction model; did you mean "

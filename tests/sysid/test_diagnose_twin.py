@@ -266,3 +266,27 @@ def test_thermal_law_survives_into_the_twin(v_heat: float) -> None:
     _check_round_trip(axis, p, 40.0)
     packed = axis.pack()
     assert packed[PL.TH_VHEAT] == v_heat and packed[PL.TH_TAU] == 4.5
+
+
+@pytest.mark.parametrize("knots", [(), (0.0, 0.35, -0.1)])
+def test_a_friction_profile_survives_into_the_twin(knots: tuple[float, ...]) -> None:
+    """A friction profile along the stroke is written as its knots, start and span, and packs
+    back to the same plant columns; without one no profile line is written."""
+    from fricbench.axis import Axis
+    from fricbench.axis import plant as PL
+    from fricbench.sysid.diagnose.twin import _axis_tables, _check_round_trip
+
+    p = PL.default_row(10.0, 10.0)
+    p[PL.FC] = 3.0
+    p[PL.PD_NKNOTS], p[PL.PD_START], p[PL.PD_SPAN] = len(knots), -0.02, 0.3
+    p[PL.PD_KNOT0:PL.PD_KNOT0 + len(knots)] = knots
+    tables = _axis_tables(p, 40.0)
+    effects = tables["effects"]
+    if knots:
+        assert effects["friction_profile"] == knots
+        assert effects["friction_profile_start"] == -0.02
+        assert effects["friction_profile_span"] == 0.3
+    else:
+        assert not any(k.startswith("friction_profile") for k in effects), effects
+    axis = Axis.from_dict({k: tables[k] for k in ("mechanics", "friction", "effects")})
+    _check_round_trip(axis, p, 40.0)

@@ -97,6 +97,11 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "backlash_load_fraction": ("effects", "backlash_load_fraction", ""),
     "compliance_friction_load": ("effects", "compliance_friction", ""),
     "compliance_b_motor_share": ("effects", "compliance_damping_motor_share", ""),
+    "pd_profile_start": ("effects", "friction_profile_start", ""),
+    "pd_profile_span": ("effects", "friction_profile_span", ""),
+    "pd_profile_knots": ("effects", "friction_profile", ""),  # the knots' values, as a list
+    **{f"pd_profile_{i}": ("effects", "friction_profile", "")
+       for i in range(PL.PD_MAX_KNOTS)},
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -112,7 +117,9 @@ _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_
               "compliance_damping": ("compliance_load_fraction",),
               "backlash_load_fraction": ("backlash",),
               "compliance_friction_load": ("compliance_load_fraction",),
-              "compliance_b_motor_share": ("compliance_friction_load",)}
+              "compliance_b_motor_share": ("compliance_friction_load",),
+              "pd_profile_start": ("pd_profile_knots",), "pd_profile_span": ("pd_profile_knots",),
+              **{f"pd_profile_{i}": ("pd_profile_knots",) for i in range(PL.PD_MAX_KNOTS)}}
 
 class TwinError(ValueError):
     """The diagnosis cannot be written as an env (the message names why)."""
@@ -215,6 +222,10 @@ def _axis_tables(p: np.ndarray, gain: float) -> dict[str, dict[str, Any]]:
             out[section][key] = "load" if value > 0.5 else "motor"
         elif name == "delay_samples":
             out[section][key] = int(value)
+        elif name == "pd_profile_knots":
+            out[section][key] = tuple(float(si[PL.PD_KNOT0 + j]) for j in range(int(value)))
+        elif name.startswith("pd_profile_") and name[len("pd_profile_"):].isdigit():
+            continue  # written with pd_profile_knots
         else:
             out[section][key] = value
     # an effect at its default (off) needs no line
