@@ -169,6 +169,11 @@ class Axis:
         p[K.P_COG_SIN] = e.cogging_amplitude * math.cos(e.cogging_phase)
         p[K.P_COG_COS] = e.cogging_amplitude * math.sin(e.cogging_phase)
         p[K.P_COG_PERIOD] = e.cogging_period
+        phases = e.cogging_harmonic_phases or (0.0,) * len(e.cogging_harmonics)
+        for col, amp, ph in zip((PL.COG_H2_SIN, PL.COG_H3_SIN), e.cogging_harmonics, phases,
+                                strict=False):
+            p[col] = amp * math.cos(ph)
+            p[col + 1] = amp * math.sin(ph)
         p[K.P_PD_GRAD] = e.friction_gradient
         p[PL.PD_CENTER] = e.friction_gradient_center
         p[K.P_DFC] = e.coulomb_asymmetry

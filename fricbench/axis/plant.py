@@ -21,7 +21,7 @@ with the friction level in the direction ``sigma = sgn(v)``, scaled along the st
     s(x)     = max(1 + g (x - x_c) + a sin(2 pi x / P) + b cos(2 pi x / P) + l(x), 0)
     fc_dir   = max(fc + sigma dfc / 2, 0) ,  fs_dir = fc_dir + fs_excess
     F_f      = s(x) sigma [fc_dir + (fs_dir - fc_dir) exp(-(|v|/vs)^delta)]   static laws
-    F_cog    = A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)
+    F_cog    = sum_h [A_s,h sin(2 pi h x / lambda) + A_c,h cos(2 pi h x / lambda)],  h = 1, 2, 3
     fv_dir   = fv + sigma dB / 2
 
 ``l(x)`` is a friction profile along the stroke (off while its knot count is 0): the relative
@@ -131,8 +131,12 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
  LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD, COMP_B_MOTOR, PD_START, PD_SPAN, PD_NKNOTS,
  PD_KNOT0) = range(44)
 PD_MAX_KNOTS = 12
+COG_H2_SIN, COG_H2_COS, COG_H3_SIN, COG_H3_COS = range(PD_KNOT0 + PD_MAX_KNOTS,
+                                                      PD_KNOT0 + PD_MAX_KNOTS + 4)
+"""The cogging's second and third harmonics (a linear motor's magnets, a motor's slots and
+poles): sine and cosine coefficients on the cogging period."""
 """Most knots of the friction profile ``l(x)`` (columns ``pd_profile_0`` ..)."""
-N_PLANT = PD_KNOT0 + PD_MAX_KNOTS
+N_PLANT = COG_H3_COS + 1
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
@@ -142,6 +146,7 @@ PLANT_NAMES = (
     "log_motor", "thermal_heating_speed", "backlash_load_fraction",
     "compliance_friction_load", "compliance_b_motor_share", "pd_profile_start",
     "pd_profile_span", "pd_profile_knots", *(f"pd_profile_{i}" for i in range(PD_MAX_KNOTS)),
+    "cog_h2_sin", "cog_h2_cos", "cog_h3_sin", "cog_h3_cos",
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
@@ -160,8 +165,10 @@ the friction on the load (padded by :func:`pad_row`)."""
 N_PLANT_UNPROFILED = 40
 """Length of the plant row before the friction profile along the stroke (padded by
 :func:`pad_row`)."""
+N_PLANT_FUNDAMENTAL = PD_KNOT0 + PD_MAX_KNOTS
+"""Length of the plant row before the cogging's harmonics (padded by :func:`pad_row`)."""
 OLDER_PLANT_LENGTHS = (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED, N_PLANT_TWO_BODY,
-                       N_PLANT_LOAD_FRICTION, N_PLANT_UNPROFILED)
+                       N_PLANT_LOAD_FRICTION, N_PLANT_UNPROFILED, N_PLANT_FUNDAMENTAL)
 """Lengths of the earlier plant layouts :func:`pad_row` accepts (and stored rows may have)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
@@ -212,20 +219,20 @@ def pad_row(row: np.ndarray) -> np.ndarray:
 
     Rows of the rigid layout (32 entries), the compliant one (36), the one with the heating
     speed (37), the one with the two-body backlash (38), the one with the compliant axis's
-    friction on the load (39) and the one before the friction profile (40) are accepted: the
-    entries added since (compliance, the logged side, the thermal heating speed, the
-    backlash's load fraction, the compliant axis's friction on the load, the motor's share of
-    its damping, the friction profile) are appended off, so an older row keeps its meaning; a
-    row of the current length is returned as a copy.
+    friction on the load (39), the one before the friction profile (40) and the one before the
+    cogging's harmonics (55) are accepted: the entries added since (compliance, the logged
+    side, the thermal heating speed, the backlash's load fraction, the compliant axis's
+    friction on the load, the motor's share of its damping, the friction profile, the
+    cogging's harmonics) are appended off, so an older row keeps its meaning; a row of the
+    current length is returned as a copy.
     """
     r = np.asarray(row, dtype=float)
     if r.shape == (N_PLANT,):
         return r.copy()
     if r.ndim != 1 or r.shape[0] not in OLDER_PLANT_LENGTHS:
-        raise ValueError(f"row: expected a plant row of {N_PLANT} (or "
-                         f"{N_PLANT_UNPROFILED}, {N_PLANT_LOAD_FRICTION}, {N_PLANT_TWO_BODY}, "
-                         f"{N_PLANT_HEATED}, {N_PLANT_COMPLIANT} or {N_PLANT_RIGID}) entries, "
-                         f"got shape {r.shape}")
+        older = ", ".join(str(n) for n in sorted(OLDER_PLANT_LENGTHS, reverse=True))
+        raise ValueError(f"row: expected a plant row of {N_PLANT} (or {older}) entries, got "
+                         f"shape {r.shape}")
     out = default_row()
     out[:r.shape[0]] = r
     return out
@@ -419,6 +426,11 @@ class Plant(NamedTuple):
     pd_x0: float
     pd_inv_step: float  # (n - 1) / L: knot intervals per metre
     pd_knots: tuple[float, ...]  # PD_MAX_KNOTS entries, those past pd_n unused
+    cog_harmonics: bool  # a second or third harmonic of the cogging is on
+    cog2_a: float
+    cog2_b: float
+    cog3_a: float
+    cog3_b: float
 
 
 def constants(p: np.ndarray) -> Plant:
@@ -465,7 +477,9 @@ def constants(p: np.ndarray) -> Plant:
         inv_neg = 1.0 / meff_neg if meff_neg != 0.0 else math.inf
     # no Stribeck hump (or vs <= 0): plain Coulomb, and the substep skips the exponential
     inv_vs = 1.0 / p[VS] if (p[VS] > 0.0 and p[FS_EXCESS] != 0.0) else 0.0
-    cog_on = (p[COG_SIN] != 0.0 or p[COG_COS] != 0.0) and p[COG_PERIOD] != 0.0
+    cog_harmonics = (p[COG_H2_SIN] != 0.0 or p[COG_H2_COS] != 0.0 or p[COG_H3_SIN] != 0.0
+                     or p[COG_H3_COS] != 0.0) and p[COG_PERIOD] != 0.0
+    cog_on = ((p[COG_SIN] != 0.0 or p[COG_COS] != 0.0) and p[COG_PERIOD] != 0.0) or cog_harmonics
     cog_k = 2.0 * math.pi / p[COG_PERIOD] if cog_on else 0.0
     pd_on = (p[PD_SIN] != 0.0 or p[PD_COS] != 0.0) and p[PD_PERIOD] != 0.0
     pd_k = 2.0 * math.pi / p[PD_PERIOD] if pd_on else 0.0
@@ -495,7 +509,8 @@ def constants(p: np.ndarray) -> Plant:
                  cc[13], cc[14], cc[15], p[LOG_MOTOR] > 0.5, heat, inv_vheat, th_gain,
                  two_body, m - m_load, p[B] - b_load, m_load, inv_pos_load, inv_neg_load,
                  b_load, load_fric, cl[0], cl[1], cl[2], cl[3], m_eff_load, inv_pos_cl,
-                 inv_neg_cl, pd_n, p[PD_START], pd_inv_step, pd_knots)
+                 inv_neg_cl, pd_n, p[PD_START], pd_inv_step, pd_knots, cog_harmonics,
+                 p[COG_H2_SIN], p[COG_H2_COS], p[COG_H3_SIN], p[COG_H3_COS])
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -537,6 +552,12 @@ def position_force(c: Plant, x: float) -> float:
         # F_cog = A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)
         ph = c.cog_k * x
         f += c.cog_a * math.sin(ph) + c.cog_b * math.cos(ph)
+    if c.cog_harmonics:
+        # the harmonics h = 2, 3 on the same period (a separate branch: without them the
+        # fundamental's sums stay the same bit for bit)
+        ph = c.cog_k * x
+        f += (c.cog2_a * math.sin(2.0 * ph) + c.cog2_b * math.cos(2.0 * ph)
+              + c.cog3_a * math.sin(3.0 * ph) + c.cog3_b * math.cos(3.0 * ph))
     return f
 
 
@@ -863,7 +884,8 @@ __all__ = [
     "PLANT_NAMES", "Plant",
     "actuate", "advance", "compliance_constants", "compliance_load_constants", "constants",
     "default_row", "friction_scale", "profile_level", "PD_MAX_KNOTS", "PD_START", "PD_SPAN",
-    "PD_NKNOTS", "PD_KNOT0", "N_PLANT_UNPROFILED",
+    "PD_NKNOTS", "PD_KNOT0", "N_PLANT_UNPROFILED", "COG_H2_SIN", "COG_H2_COS", "COG_H3_SIN",
+    "COG_H3_COS", "N_PLANT_FUNDAMENTAL",
     "levels", "load_position", "pad_row", "position_force", "sense", "sliding_force",
     "thermal_drift",
     "TS", "NSUB", "M", "B", "KT", "IMAX", "DELAY", "FKIND", "FC", "DFC", "FS_EXCESS", "VS",

@@ -7,7 +7,10 @@ a friction law; the linear loop of :mod:`fricbench.axis.linear` is built from th
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
 
 from fricbench._validation import (
     check_choice,
@@ -21,6 +24,15 @@ from fricbench.axis import kernel as K
 from fricbench.axis import plant as PL
 
 __all__ = ["ControllerParams", "Effects", "MechanicsParams"]
+
+
+def _numbers(name: str, value: object, most: int) -> tuple[float, ...]:
+    """``value`` as a tuple of at most ``most`` numbers (a TOML array arrives as a list)."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise ValueError(f"{name}={value!r}: expected a sequence of numbers")
+    if len(value) > most:
+        raise ValueError(f"{name}: {len(value)} entries, expected at most {most}")
+    return tuple(check_finite(f"{name}[{i}]", v) for i, v in enumerate(value))
 
 
 @dataclass(frozen=True)
@@ -152,6 +164,12 @@ class Effects:
         Spatial period of the ripple, m (e.g. screw lead / pole pairs).
     cogging_phase : float
         Phase of the ripple, rad.
+    cogging_harmonics : tuple of float
+        Amplitudes of the ripple's second and third harmonics, N (``A_h sin(2 pi h x / period
+        + phase_h)``, ``h = 2, 3``): a linear motor's magnets, a motor's slots against its
+        poles. Empty (the default), or one or two entries.
+    cogging_harmonic_phases : tuple of float
+        Their phases, rad: empty (all 0) or one per harmonic.
     friction_gradient : float
         Linear change of the friction levels along the stroke, 1/m
         (``1 + grad (x - friction_gradient_center)``).
@@ -234,6 +252,8 @@ class Effects:
     cogging_amplitude: float = 0.0
     cogging_period: float = 5.0e-3
     cogging_phase: float = 0.0
+    cogging_harmonics: tuple[float, ...] = ()
+    cogging_harmonic_phases: tuple[float, ...] = ()
     friction_gradient: float = 0.0
     friction_gradient_center: float = 0.0
     coulomb_asymmetry: float = 0.0
@@ -264,6 +284,7 @@ class Effects:
         check_nonneg("cogging_amplitude", self.cogging_amplitude, "N")
         check_positive("cogging_period", self.cogging_period, "m")
         check_finite("cogging_phase", self.cogging_phase)
+        self._check_harmonics()
         check_range("friction_gradient", self.friction_gradient, -1.0, 1.0, "1/m")
         check_finite("friction_gradient_center", self.friction_gradient_center)
         check_finite("coulomb_asymmetry", self.coulomb_asymmetry)
@@ -291,6 +312,20 @@ class Effects:
                 f"backlash_load_fraction={self.backlash_load_fraction:g} with "
                 f"compliance_load_fraction={self.compliance_load_fraction:g}: expected one of "
                 "the two (a two-body backlash on a compliant axis is not modelled)")
+
+    def _check_harmonics(self) -> None:
+        """At most two harmonic amplitudes (N, not negative) and as many phases or none."""
+        amps = _numbers("cogging_harmonics", self.cogging_harmonics, 2)
+        phases = _numbers("cogging_harmonic_phases", self.cogging_harmonic_phases, 2)
+        for i, a in enumerate(amps):
+            check_nonneg(f"cogging_harmonics[{i}]", a, "N")
+        for i, ph in enumerate(phases):
+            check_finite(f"cogging_harmonic_phases[{i}]", ph)
+        if phases and len(phases) != len(amps):
+            raise ValueError(f"cogging_harmonic_phases: {len(phases)} phases for "
+                             f"{len(amps)} harmonics, expected one per harmonic or none")
+        object.__setattr__(self, "cogging_harmonics", amps)
+        object.__setattr__(self, "cogging_harmonic_phases", phases)
 
     def _check_profile(self) -> None:
         """The friction profile: a sequence of at most ``PD_MAX_KNOTS`` changes in -0.9 .. 2,

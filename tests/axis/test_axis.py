@@ -111,8 +111,9 @@ def test_effects_off_by_default() -> None:
     for f in fields(e):
         if f.name in ("measurement",):
             assert e.measurement == "motor"
-        elif f.name == "friction_profile":
-            assert e.friction_profile == ()  # no knots: off (its start and span are shapes)
+        elif f.name in ("friction_profile", "cogging_harmonics", "cogging_harmonic_phases"):
+            assert getattr(e, f.name) == (), f.name  # none: off (a profile's start and span
+            # are shapes)
         elif f.name.endswith(("period", "phase", "time_constant", "compliance_frequency",
                               "compliance_damping", "compliance_friction")):
             # shapes of an effect whose size is off (compliance: the load fraction)

@@ -290,3 +290,30 @@ def test_a_friction_profile_survives_into_the_twin(knots: tuple[float, ...]) -> 
         assert not any(k.startswith("friction_profile") for k in effects), effects
     axis = Axis.from_dict({k: tables[k] for k in ("mechanics", "friction", "effects")})
     _check_round_trip(axis, p, 40.0)
+
+
+@pytest.mark.parametrize(("sines", "cosines"), [((0.0, 0.0), (0.0, 0.0)),
+                                                ((0.02, 0.0), (-0.01, 0.0)),
+                                                ((0.0, 0.005), (0.0, 0.004))])
+def test_cogging_harmonics_survive_into_the_twin(sines: tuple[float, float],
+                                                  cosines: tuple[float, float]) -> None:
+    """The ripple's harmonics are written as amplitudes and phases in newtons and pack back
+    to the same plant columns; without them no line is written."""
+    from fricbench.axis import Axis
+    from fricbench.axis import plant as PL
+    from fricbench.sysid.diagnose.twin import _axis_tables, _check_round_trip
+
+    p = PL.default_row(10.0, 10.0)
+    p[PL.COG_SIN], p[PL.COG_PERIOD] = 0.05, 4e-3
+    p[PL.COG_H2_SIN], p[PL.COG_H3_SIN] = sines
+    p[PL.COG_H2_COS], p[PL.COG_H3_COS] = cosines
+    tables = _axis_tables(p, 40.0)
+    effects = tables["effects"]
+    if any(sines) or any(cosines):
+        amps = effects["cogging_harmonics"]
+        assert amps[-1] == pytest.approx(40.0 * np.hypot(sines[-1] or sines[0],
+                                                         cosines[-1] or cosines[0]))
+    else:
+        assert "cogging_harmonics" not in effects and "cogging_harmonic_phases" not in effects
+    axis = Axis.from_dict({k: tables[k] for k in ("mechanics", "friction", "effects")})
+    _check_round_trip(axis, p, 40.0)

@@ -102,6 +102,11 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "pd_profile_knots": ("effects", "friction_profile", ""),  # the knots' values, as a list
     **{f"pd_profile_{i}": ("effects", "friction_profile", "")
        for i in range(PL.PD_MAX_KNOTS)},
+    # with their cosines: amplitudes and phases, as lists (written with cog_h2_sin)
+    "cog_h2_sin": ("effects", "cogging_harmonics", _F),
+    "cog_h2_cos": ("effects", "cogging_harmonic_phases", _F),
+    "cog_h3_sin": ("effects", "cogging_harmonics", _F),
+    "cog_h3_cos": ("effects", "cogging_harmonic_phases", _F),
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -226,12 +231,27 @@ def _axis_tables(p: np.ndarray, gain: float) -> dict[str, dict[str, Any]]:
             out[section][key] = tuple(float(si[PL.PD_KNOT0 + j]) for j in range(int(value)))
         elif name.startswith("pd_profile_") and name[len("pd_profile_"):].isdigit():
             continue  # written with pd_profile_knots
+        elif name == "cog_h2_sin":
+            out[section].update(_harmonics(si, gain))
+        elif name.startswith("cog_h"):
+            continue  # written with cog_h2_sin
         else:
             out[section][key] = value
     # an effect at its default (off) needs no line
     defaults = asdict(Effects())
     out["effects"] = {k: v for k, v in out["effects"].items() if v != defaults[k]}
     return out
+
+
+def _harmonics(si: np.ndarray, gain: float) -> dict[str, tuple[float, ...]]:
+    """The cogging's harmonics as the env's amplitudes and phases (the last zero ones left
+    out): ``A sin(k x + phi) = A cos(phi) sin(k x) + A sin(phi) cos(k x)``."""
+    pairs = [(float(si[c]) * gain, float(si[c + 1]) * gain)
+             for c in (PL.COG_H2_SIN, PL.COG_H3_SIN)]
+    while pairs and pairs[-1] == (0.0, 0.0):
+        pairs.pop()
+    return {"cogging_harmonics": tuple(math.hypot(a, b) for a, b in pairs),
+            "cogging_harmonic_phases": tuple(math.atan2(b, a) for a, b in pairs)}
 
 
 def _unused(p: np.ndarray, name: str) -> bool:
