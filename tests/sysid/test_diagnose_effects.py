@@ -119,16 +119,15 @@ def test_plugin_effect_joins_the_search_order() -> None:
 
 def test_a_failed_screen_sends_a_friction_level_effect_to_a_real_fit() -> None:
     """The position search fits an effect whose linearised screen failed (its held-out ratio
-    above ``settings.screen_failed``) for real when the effect says its screen cannot be
+    above 1: no cut at all) for real when the effect says its screen cannot be
     trusted; the others keep their rank; the always-fitted ones are fitted whatever the screen."""
     from fricbench.sysid.diagnose.search import _fitted_anyway
-    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     posdep = "position_dependent_friction"
     assert get_effect(posdep).fitted_when_screen_fails
-    assert _fitted_anyway(posdep, 1.01 * DEFAULT_SETTINGS.screen_failed)
-    assert not _fitted_anyway(posdep, 0.99 * DEFAULT_SETTINGS.screen_failed)
-    assert not _fitted_anyway("force_offset", 100.0 * DEFAULT_SETTINGS.screen_failed)
+    assert _fitted_anyway(posdep, 1.01)
+    assert not _fitted_anyway(posdep, 0.99)
+    assert not _fitted_anyway("force_offset", 100.0)
     for name in effect_names():
         if get_effect(name).always_fitted:
             assert _fitted_anyway(name, 0.5) and _fitted_anyway(name, 100.0)

@@ -873,8 +873,9 @@ _Variant = tuple[float, _Probe, np.ndarray]
 def _fitted_anyway(name: str, ratio: float) -> bool:
     """Whether ``name`` is fitted for real whatever its rank (its screen gave ``ratio``)."""
     effect = get_effect(name)
-    return effect.always_fitted or (effect.fitted_when_screen_fails
-                                    and ratio > defaults().screen_failed)
+    # a screen that predicts no cut at all (a ratio above 1) has failed for an effect whose
+    # screen cannot be trusted off its linear range: fitted for real
+    return effect.always_fitted or (effect.fitted_when_screen_fails and ratio > 1.0)
 
 
 def _fit_starts(variants: list[_Variant], name: str, b: Bounds) -> list[GreyBox]:

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 46 today; the one-method issue's target is at most 15.**
+**Tuned values: 45 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -181,11 +181,6 @@ class DiagnoseSettings:
         Closed-loop search (no effort). In the refit of an accepted model, each loop gain may
         move by this factor at most (and a cascade's integral rate may fall by it). Tuned: set
         by hand with the first search (commit 90b5a80).
-    screen_failed : float
-        Closed-loop search (no effort). A linearised screen that predicts the held-out error to
-        grow by more than this factor has left the range where the effect acts linearly:
-        effects with ``Effect.fitted_when_screen_fails`` are then fitted for real. Tuned on the
-        second simulator's tuning seeds (commit e72caca).
     trust_walks : int
         Closed-loop search. How many times a position fit moves a trust region a parameter
         ended on (:meth:`~fricbench.sysid.diagnose.models.PositionFit.run`). Not tuned: a
@@ -477,7 +472,6 @@ class DiagnoseSettings:
     quantum_multiples: tuple[int, ...] = _setting((1, 2, 3, 4), tuned=False, check=_COUNTS)
     eval_box: float = _setting(2.0, tuned=True, check=_AT_LEAST_1)
     refit_box: float = _setting(3.0, tuned=True, check=_AT_LEAST_1)
-    screen_failed: float = _setting(2.0, tuned=True, check=_POSITIVE)
     trust_walks: int = _setting(3, tuned=False, check=_COUNT0)
 
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------

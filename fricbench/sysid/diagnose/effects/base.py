@@ -100,7 +100,7 @@ class Effect(ABC):
         Fitted for real at every step of the position search, whatever its linearised screen.
     fitted_when_screen_fails : bool
         Fitted for real when its linearised screen fails (a held-out error ratio above
-        ``settings.screen_failed``): a friction level that changes
+        the natural bound 1: no cut at all): a friction level that changes
         is as far from linear as stiction, and a screen that far off says nothing of it.
     refits_mass : bool
         An output effect that changes the dynamics between force and motion (a compliant
