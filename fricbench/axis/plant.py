@@ -131,11 +131,11 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
  LOG_MOTOR, TH_VHEAT, BL_LOAD, COMP_LOAD, COMP_B_MOTOR, PD_START, PD_SPAN, PD_NKNOTS,
  PD_KNOT0) = range(44)
 PD_MAX_KNOTS = 12
+"""Most knots of the friction profile ``l(x)`` (columns ``pd_profile_0`` ..)."""
 COG_H2_SIN, COG_H2_COS, COG_H3_SIN, COG_H3_COS = range(PD_KNOT0 + PD_MAX_KNOTS,
                                                       PD_KNOT0 + PD_MAX_KNOTS + 4)
 """The cogging's second and third harmonics (a linear motor's magnets, a motor's slots and
 poles): sine and cosine coefficients on the cogging period."""
-"""Most knots of the friction profile ``l(x)`` (columns ``pd_profile_0`` ..)."""
 N_PLANT = COG_H3_COS + 1
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",

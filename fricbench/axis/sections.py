@@ -330,13 +330,7 @@ class Effects:
     def _check_profile(self) -> None:
         """The friction profile: a sequence of at most ``PD_MAX_KNOTS`` changes in -0.9 .. 2,
         a finite start and, with two knots or more, a positive span."""
-        knots = self.friction_profile
-        if isinstance(knots, (str, bytes)) or not hasattr(knots, "__len__"):
-            raise ValueError(f"friction_profile={knots!r}: expected a sequence of relative "
-                             "friction level changes, one per knot")
-        if len(knots) > PL.PD_MAX_KNOTS:
-            raise ValueError(f"friction_profile: {len(knots)} knots, expected at most "
-                             f"{PL.PD_MAX_KNOTS}")
+        knots = _numbers("friction_profile", self.friction_profile, PL.PD_MAX_KNOTS)
         values = tuple(check_range(f"friction_profile[{i}]", v, -0.9, 2.0)
                        for i, v in enumerate(knots))
         # a TOML array arrives as a list: stored as a tuple, so the section stays hashable

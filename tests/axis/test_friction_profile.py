@@ -73,11 +73,11 @@ def test_a_worn_stretch_raises_the_friction_there_alone() -> None:
 
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"friction_profile": tuple(0.1 for _ in range(PL.PD_MAX_KNOTS + 1))},
-     f"13 knots, expected at most {PL.PD_MAX_KNOTS}"),
+     f"friction_profile: 13 entries, expected at most {PL.PD_MAX_KNOTS}"),
     ({"friction_profile": (0.0, 0.2)}, r"friction_profile_span=0(\.0)?: expected > 0 m"),
     ({"friction_profile": (0.0, 3.0), "friction_profile_span": 0.1},
      r"friction_profile\[1\]=3"),
-    ({"friction_profile": "0.1, 0.2"}, "expected a sequence"),
+    ({"friction_profile": "0.1, 0.2"}, "expected a sequence of numbers"),
     ({"friction_profile_start": float("nan")}, "friction_profile_start=nan"),
 ])
 def test_a_bad_profile_names_the_parameter(kwargs: dict, message: str) -> None:

@@ -292,19 +292,21 @@ def test_a_friction_profile_survives_into_the_twin(knots: tuple[float, ...]) -> 
     _check_round_trip(axis, p, 40.0)
 
 
-@pytest.mark.parametrize(("sines", "cosines"), [((0.0, 0.0), (0.0, 0.0)),
-                                                ((0.02, 0.0), (-0.01, 0.0)),
-                                                ((0.0, 0.005), (0.0, 0.004))])
-def test_cogging_harmonics_survive_into_the_twin(sines: tuple[float, float],
+@pytest.mark.parametrize(("fundamental", "sines", "cosines"), [
+    (0.05, (0.0, 0.0), (0.0, 0.0)), (0.05, (0.02, 0.0), (-0.01, 0.0)),
+    (0.05, (0.0, 0.005), (0.0, 0.004)), (0.0, (0.01, 0.0), (0.0, 0.0))])
+def test_cogging_harmonics_survive_into_the_twin(fundamental: float,
+                                                  sines: tuple[float, float],
                                                   cosines: tuple[float, float]) -> None:
     """The ripple's harmonics are written as amplitudes and phases in newtons and pack back
-    to the same plant columns; without them no line is written."""
+    to the same plant columns, with their period (harmonics without a fundamental too);
+    without them no line is written."""
     from fricbench.axis import Axis
     from fricbench.axis import plant as PL
     from fricbench.sysid.diagnose.twin import _axis_tables, _check_round_trip
 
     p = PL.default_row(10.0, 10.0)
-    p[PL.COG_SIN], p[PL.COG_PERIOD] = 0.05, 4e-3
+    p[PL.COG_SIN], p[PL.COG_PERIOD] = fundamental, 4e-3
     p[PL.COG_H2_SIN], p[PL.COG_H3_SIN] = sines
     p[PL.COG_H2_COS], p[PL.COG_H3_COS] = cosines
     tables = _axis_tables(p, 40.0)
@@ -317,3 +319,5 @@ def test_cogging_harmonics_survive_into_the_twin(sines: tuple[float, float],
         assert "cogging_harmonics" not in effects and "cogging_harmonic_phases" not in effects
     axis = Axis.from_dict({k: tables[k] for k in ("mechanics", "friction", "effects")})
     _check_round_trip(axis, p, 40.0)
+    if any(sines) or any(cosines):
+        assert axis.pack()[PL.COG_PERIOD] == 4e-3  # the harmonics' period is written too

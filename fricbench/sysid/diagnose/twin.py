@@ -114,7 +114,8 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
 _POLAR = {"cog_sin": "cog_cos", "pd_sin": "pd_cos"}
 
 # an effect's columns whose off value makes the others irrelevant (their defaults are kept)
-_ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos"), "pd_period": ("pd_sin", "pd_cos"),
+_ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos", "cog_h2_sin", "cog_h2_cos", "cog_h3_sin",
+                            "cog_h3_cos"), "pd_period": ("pd_sin", "pd_cos"),
               "thermal_tau": ("thermal_amplitude",),
               "thermal_heating_speed": ("thermal_amplitude",), "vs": ("fs_excess",),
               "delta": ("fs_excess",), "pd_center": ("pd_gradient",),
