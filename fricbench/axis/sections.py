@@ -319,8 +319,6 @@ class Effects:
         phases = _numbers("cogging_harmonic_phases", self.cogging_harmonic_phases, 2)
         for i, a in enumerate(amps):
             check_nonneg(f"cogging_harmonics[{i}]", a, "N")
-        for i, ph in enumerate(phases):
-            check_finite(f"cogging_harmonic_phases[{i}]", ph)
         if phases and len(phases) != len(amps):
             raise ValueError(f"cogging_harmonic_phases: {len(phases)} phases for "
                              f"{len(amps)} harmonics, expected one per harmonic or none")
