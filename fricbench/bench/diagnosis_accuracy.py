@@ -289,14 +289,17 @@ def summarise(results: Sequence[CaseResult], friction: frozenset[str]) -> Summar
 
     ``friction`` are the names that are never false (every run has friction of some form).
     """
+    from fricbench.sysid.diagnose.effects import named_as
+
     s = Summary()
     for r in results:
+        named = {named_as(n) for n in r.named}  # a harmonic of the cogging names the cogging
         s.n += 1
         s.right += r.ok
         s.crashed += r.crashed
         s.seconds.append(r.elapsed)
         wanted = r.present.split(",") if r.present else []
-        false = set(r.named) - friction - {n for w in wanted for n in w.split("|")}
+        false = named - friction - {n for w in wanted for n in w.split("|")}
         for name in false:
             s.false[name] += 1
         if r.present is None:
@@ -304,7 +307,7 @@ def summarise(results: Sequence[CaseResult], friction: frozenset[str]) -> Summar
             s.controls_false += bool(false)
         for w in wanted:
             s.present[w] += 1
-            if set(w.split("|")) & set(r.named):
+            if set(w.split("|")) & named:
                 s.found[w] += 1
             else:
                 s.missed[w] += 1

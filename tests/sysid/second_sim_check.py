@@ -233,6 +233,14 @@ def run_failures(status: int | None, stderr: str, report: dict | None,
     return failures
 
 
+def named_effects(report: dict) -> set[str]:
+    """The effects a report names, each further term of an effect (a harmonic of the cogging:
+    ``Effect.refines``) counted as that effect."""
+    from fricbench.sysid.diagnose.effects import named_as
+
+    return {named_as(e) for e in report.get("effects", [])}
+
+
 def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
     """Why ``outcome`` is not a right diagnosis of its case (empty list: it is)."""
     case = outcome.case
@@ -241,7 +249,7 @@ def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
     if report is None:
         return failures
     outcome.bad = bad_numbers(report)
-    effects = set(report.get("effects", []))
+    effects = named_effects(report)
     present = S.EFFECT_NAME[case.kind]
     allowed = S.FRICTION_NAMES | ({present} if present else set())
     if present is not None and present not in effects:

@@ -35,7 +35,8 @@ def prep():  # type: ignore[no-untyped-def]
 
 def test_builtin_effects_in_search_order() -> None:
     assert EFFECT_NAMES == ("coulomb_friction", "stribeck_friction", "asymmetric_friction",
-                            "force_offset", "backlash", "cogging", "position_dependent_friction",
+                            "force_offset", "backlash", "cogging", "cogging_harmonic_2",
+                            "cogging_harmonic_3", "position_dependent_friction",
                             "thermal_drift", "compliance")
     assert effect_names()[: len(EFFECT_NAMES)] == EFFECT_NAMES
 

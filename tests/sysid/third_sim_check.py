@@ -29,7 +29,7 @@ import os
 from dataclasses import dataclass, field
 
 import third_sim as S
-from second_sim_check import bad_numbers, run_cli, run_failures
+from second_sim_check import bad_numbers, named_effects, run_cli, run_failures
 
 __all__ = ["Outcome", "diagnose_case", "judge", "bad_numbers"]
 
@@ -81,7 +81,7 @@ def judge(outcome: Outcome, parse_error: str | None = None) -> list[str]:
     report = outcome.report
     if report is None:
         return failures
-    named = set(report.get("effects", []))
+    named = named_effects(report)
     for name in truth["required"]:  # type: ignore[attr-defined]
         if name not in named:
             failures.append(f"missed {name}")

@@ -8,6 +8,7 @@ says). With ``sigma = sgn(v)`` and the friction scale
             + sigma (dB/2) v                                       asymmetric viscous
             + f0                                                   constant force
             + A_s sin(2 pi x / lambda) + A_c cos(2 pi x / lambda)  cogging
+            + sum_n A_sn sin(2 pi n x / lambda) + A_cn cos(...)    its harmonics (n = 2, 3)
     y     = play_beta(x) + d_inf (1 - exp(-t / tau))               backlash, thermal drift
             (or + d_inf theta, tau theta' = |v| / v_heat - theta)   (of time, or of motion)
     m_M a_M = ... + k d + c d' ,  m_L a_L = -k d - c d'             compliance (d = x_L - x_M)
@@ -28,7 +29,7 @@ from fricbench.registry import Registry
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 
 __all__ = ["Effect", "Probe", "effect_registry", "get_effect", "effect_names", "EFFECT_NAMES",
-           "free_indices", "size_entries", "describe_parameters"]
+           "named_as", "free_indices", "size_entries", "describe_parameters"]
 
 effect_registry: Registry[Effect] = Registry("effect", "fricbench.effects")
 
@@ -46,6 +47,10 @@ effect_registry.register("backlash", f"{_PKG}.backlash:Backlash",
                          description="lost motion between motor and measured position")
 effect_registry.register("cogging", f"{_PKG}.cogging:Cogging",
                          description="a force periodic in position (cogging, ripple)")
+effect_registry.register("cogging_harmonic_2", f"{_PKG}.cogging_harmonic:CoggingHarmonic2",
+                         description="the cogging's 2nd harmonic, at half its period")
+effect_registry.register("cogging_harmonic_3", f"{_PKG}.cogging_harmonic:CoggingHarmonic3",
+                         description="the cogging's 3rd harmonic, at a third of its period")
 effect_registry.register("position_dependent_friction",
                          f"{_PKG}.position_dependent:PositionDependentFriction",
                          description="friction levels that change along the stroke")
@@ -73,6 +78,15 @@ def effect_names() -> tuple[str, ...]:
 
 EFFECT_NAMES = effect_names()
 """The built-in effects (plug-ins registered later are in :func:`effect_names`)."""
+
+
+def named_as(name: str) -> str:
+    """The effect a report naming ``name`` names: the effect it is a further term of
+    (:attr:`Effect.refines`: a harmonic of the cogging names the cogging), else itself (a name
+    the registry does not know is returned as it is)."""
+    if name not in effect_registry:
+        return name
+    return get_effect(name).refines or name
 
 
 def free_indices(name: str, effects: Sequence[str]) -> tuple[int, ...]:

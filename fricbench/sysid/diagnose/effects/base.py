@@ -58,6 +58,10 @@ class Effect(ABC):
     requires : tuple of str
         Effects that must already be in the model (a change of a friction level needs a
         friction level).
+    refines : str or None
+        The effect this one is a further term of (a harmonic of the cogging): it is found only
+        with it, and a run that names it names that effect (what a judge of the diagnosis
+        counts).
     needs_reversals : bool
         Only identifiable when the motion reverses.
     shown_at_rests : bool
@@ -111,6 +115,7 @@ class Effect(ABC):
     name: ClassVar[str]
     kind: ClassVar[str]
     requires: ClassVar[tuple[str, ...]] = ()
+    refines: ClassVar[str | None] = None
     needs_reversals: ClassVar[bool] = False
     shown_at_rests: ClassVar[bool] = False
     summary: ClassVar[str]
