@@ -37,6 +37,7 @@ def test_builtin_effects_in_search_order() -> None:
     assert EFFECT_NAMES == ("coulomb_friction", "stribeck_friction", "asymmetric_friction",
                             "force_offset", "backlash", "cogging", "cogging_harmonic_2",
                             "cogging_harmonic_3", "position_dependent_friction",
+                            "friction_profile_3", "friction_profile_5", "friction_profile_9",
                             "thermal_drift", "compliance")
     assert effect_names()[: len(EFFECT_NAMES)] == EFFECT_NAMES
 

@@ -48,6 +48,7 @@ from fricbench.sysid.diagnose.effects import (
     Effect,
     describe_parameters,
     effect_names,
+    excluded,
     get_effect,
 )
 from fricbench.sysid.diagnose.equation_error import loop_by_equation_error
@@ -210,6 +211,8 @@ def _available(model: GreyBox, prep: Prepared, settings: DiagnoseSettings) -> li
             continue
         if any(r not in model.effects for r in effect.requires):
             continue
+        if excluded(name, model.effects):
+            continue  # the same term in another shape is in
         if not _shown_by(effect, prep):
             continue
         if not effect.available(prep):
@@ -994,6 +997,7 @@ def _joint_with_prerequisite(m: GreyBox, y: np.ndarray, scores: list[CandidateSc
             effects = m.effects + (req, name)
             if (req not in effect.requires or name in m.effects
                     or any(r not in effects for r in effect.requires)
+                    or excluded(name, m.effects + (req,))
                     or not _shown_by(effect, prep)
                     or not effect.available(prep)):
                 continue

@@ -29,7 +29,7 @@ from fricbench.registry import Registry
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 
 __all__ = ["Effect", "Probe", "effect_registry", "get_effect", "effect_names", "EFFECT_NAMES",
-           "named_as", "free_indices", "size_entries", "describe_parameters"]
+           "named_as", "excluded", "free_indices", "size_entries", "describe_parameters"]
 
 effect_registry: Registry[Effect] = Registry("effect", "fricbench.effects")
 
@@ -54,6 +54,11 @@ effect_registry.register("cogging_harmonic_3", f"{_PKG}.cogging_harmonic:Cogging
 effect_registry.register("position_dependent_friction",
                          f"{_PKG}.position_dependent:PositionDependentFriction",
                          description="friction levels that change along the stroke")
+for _knots in (3, 5, 9):
+    effect_registry.register(f"friction_profile_{_knots}",
+                             f"{_PKG}.friction_profile:FrictionProfile{_knots}",
+                             description="friction levels of any shape along the stroke, "
+                                         f"linear between {_knots} knots")
 effect_registry.register("thermal_drift", f"{_PKG}.thermal:ThermalDrift",
                          description="a slow growth of the measured position with time")
 effect_registry.register("compliance", f"{_PKG}.compliance:Compliance",
@@ -87,6 +92,13 @@ def named_as(name: str) -> str:
     if name not in effect_registry:
         return name
     return get_effect(name).refines or name
+
+
+def excluded(name: str, effects: Sequence[str]) -> bool:
+    """Whether effect ``name`` may not join a model with ``effects`` (the same term in another
+    shape: :attr:`Effect.excludes`, on either side)."""
+    mine = set(get_effect(name).excludes)
+    return any(e in mine or name in get_effect(e).excludes for e in effects)
 
 
 def free_indices(name: str, effects: Sequence[str]) -> tuple[int, ...]:

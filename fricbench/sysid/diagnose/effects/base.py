@@ -58,6 +58,10 @@ class Effect(ABC):
     requires : tuple of str
         Effects that must already be in the model (a change of a friction level needs a
         friction level).
+    excludes : tuple of str
+        Effects that may not be in a model with it: the same term in another shape (a
+        friction profile of another number of knots, the gradient and sinusoid). Either side
+        listing the other is enough.
     refines : str or None
         The effect this one is a further term of (a harmonic of the cogging): it is found only
         with it, and a run that names it names that effect (what a judge of the diagnosis
@@ -115,6 +119,7 @@ class Effect(ABC):
     name: ClassVar[str]
     kind: ClassVar[str]
     requires: ClassVar[tuple[str, ...]] = ()
+    excludes: ClassVar[tuple[str, ...]] = ()
     refines: ClassVar[str | None] = None
     needs_reversals: ClassVar[bool] = False
     shown_at_rests: ClassVar[bool] = False
