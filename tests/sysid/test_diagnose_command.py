@@ -182,3 +182,25 @@ def test_an_effort_without_a_stated_unit_is_labelled_n_with_a_warning(run_csv, t
     assert not [w for w in data_a["warnings"] if "--effort-unit" in w]
     keys = [k for step in data_a["steps"] for k in step["parameters"]]
     assert any(k.endswith("_A") for k in keys) and not any(k.endswith("_N") for k in keys)
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--try", "friction_profile_4"], "--try 'friction_profile_4': expected an effect of the "
+                                      "library"),
+    (["--try", "friction_profile_5", "--open-loop"], "--try: the open-loop search tries its "
+                                                     "own library"),
+])
+def test_try_names_an_effect_of_the_library(run_csv, capsys, extra, message):
+    code = main([run_csv, "--quiet", *extra])
+    err = capsys.readouterr().err
+    assert code == EXIT_BAD_INPUT and message in err and "Traceback" not in err
+
+
+def test_try_adds_an_effect_the_search_leaves_out(run_csv, capsys):
+    """``--try`` puts an effect tried only when asked among the candidates: the profile is
+    scored at the steps where Coulomb friction is in (the progress lines name it); without
+    ``--try`` it is never scored."""
+    assert main([run_csv, "--max-effects", "2"]) == EXIT_OK
+    assert "friction_profile_5" not in capsys.readouterr().err
+    assert main([run_csv, "--max-effects", "2", "--try", "friction_profile_5"]) == EXIT_OK
+    assert "friction_profile_5" in capsys.readouterr().err

@@ -16,7 +16,13 @@ from fricbench.axis import Axis, simulate
 from fricbench.axis import plant as PL
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.diagnosis import diagnose
-from fricbench.sysid.diagnose.effects import effect_names, excluded, get_effect, named_as
+from fricbench.sysid.diagnose.effects import (
+    default_candidates,
+    effect_names,
+    excluded,
+    get_effect,
+    named_as,
+)
 from fricbench.sysid.diagnose.effects.friction_profile import PROFILE_KNOTS, profile_name
 from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.io import validate_arrays
@@ -71,17 +77,26 @@ def _run(seed: int = 0):
     return validate_arrays(res.t, res.x_ref, res.x, res.u)
 
 
+def test_the_profiles_are_tried_when_asked_for() -> None:
+    profiles = {profile_name(n) for n in PROFILE_KNOTS}
+    assert profiles <= set(effect_names())
+    assert not profiles & set(default_candidates())
+    assert all(get_effect(p).tried_by_default is False for p in profiles)
+
+
 def test_a_dirty_stretch_is_found_and_cuts_the_error() -> None:
     """A friction level raised over a stretch of the stroke (neither a gradient nor a
-    sinusoid) is named a position-dependent friction by a profile, and the free-run error
-    ends below that of the same run diagnosed without the profiles among the candidates."""
+    sinusoid) is named a position-dependent friction by a profile when the profiles are
+    tried, and the free-run error ends below that of the same run diagnosed on the default
+    candidates (which leave them out)."""
     run = _run()
-    res = diagnose(run)
+    asked = default_candidates() + tuple(profile_name(n) for n in PROFILE_KNOTS)
+    res = diagnose(run, settings=dataclasses.replace(defaults(), candidates=asked))
     named = {named_as(e) for e in res.effects}
     assert "position_dependent_friction" in named, res.effects
     assert any(e.startswith("friction_profile_") for e in res.effects), res.effects
-    names = tuple(n for n in effect_names() if not n.startswith("friction_profile_"))
-    without = diagnose(run, settings=dataclasses.replace(defaults(), candidates=names))
+    without = diagnose(run)
+    assert not any(e.startswith("friction_profile_") for e in without.effects)
     rms = res.to_dict()["position"]["rms_after"]  # type: ignore[index]
     rms_without = without.to_dict()["position"]["rms_after"]  # type: ignore[index]
     assert rms < rms_without / 1.5, (rms, rms_without, res.effects, without.effects)

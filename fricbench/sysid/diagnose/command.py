@@ -78,6 +78,11 @@ def _configure(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
                            "from the data; rounded exports tolerated)")
     tune.add_argument("--max-effects", type=int, default=8,
                       help="most effects to add (default: 8)")
+    tune.add_argument("--try", dest="try_effects", action="append", default=[],
+                      metavar="EFFECT",
+                      help="also try this effect, one the search leaves out unless asked (the "
+                           "friction profiles friction_profile_3, _5, _9: a friction level of "
+                           "any shape along the stroke); repeat for more")
     tune.add_argument("--filter-hz", type=float, default=None,
                       help="derivative filter cut-off of the inverse dynamics, Hz "
                            "(default: a tenth of the sampling rate)")
@@ -140,6 +145,13 @@ def _check_options(args: argparse.Namespace, run: RunData | None = None) -> str 
     if run is None:
         if args.max_effects < 0:
             return f"--max-effects {args.max_effects}: expected an integer >= 0"
+        from fricbench.sysid.diagnose.effects import effect_names
+
+        known = effect_names()
+        for name in getattr(args, "try_effects", []):
+            if name not in known:
+                return (f"--try {name!r}: expected an effect of the library, one of "
+                        f"{', '.join(known)}")
         if args.decimate is not None and args.decimate < 1:
             return f"--decimate {args.decimate}: expected an integer >= 1 (1: no decimation)"
         if args.filter_hz is not None and not (math.isfinite(args.filter_hz)
@@ -208,6 +220,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     open_loop = getattr(args, "open_loop", False)
+    if open_loop and getattr(args, "try_effects", []):
+        print("error: --try: the open-loop search tries its own library of effects; --try "
+              "adds to the closed-loop search only", file=sys.stderr)
+        return EXIT_BAD_INPUT
     if open_loop and args.no_effort:
         print("error: --open-loop and --no-effort: an open-loop run is driven by its effort "
               "column", file=sys.stderr)
@@ -264,9 +280,14 @@ def run(args: argparse.Namespace) -> int:
         return _run_open_loop(args, run_data, other, log, t_start)
     try:
         from fricbench.sysid.diagnose.diagnosis import diagnose
+        from fricbench.sysid.diagnose.effects import default_candidates
         from fricbench.sysid.diagnose.settings import defaults
 
         settings = dataclasses.replace(defaults(), max_steps=args.max_effects)
+        if getattr(args, "try_effects", []):
+            tried = default_candidates()
+            settings = dataclasses.replace(settings, candidates=tried + tuple(
+                dict.fromkeys(e for e in args.try_effects if e not in tried)))
         result = diagnose(run_data, validate=other, force_unit=args.effort_unit,
                           settings=settings,
                           compare_tf=args.tf, cutoff_hz=args.filter_hz, decim=args.decimate,

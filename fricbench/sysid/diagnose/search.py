@@ -46,8 +46,8 @@ from fricbench.sysid.diagnose.controllers import CascadeController
 from fricbench.sysid.diagnose.criterion import block_consistency, false_detection_rate
 from fricbench.sysid.diagnose.effects import (
     Effect,
+    default_candidates,
     describe_parameters,
-    effect_names,
     excluded,
     get_effect,
 )
@@ -78,9 +78,12 @@ __all__ = ["SearchSettings", "Step", "CandidateScore", "SearchResult", "forward_
 
 
 def effects_tried(settings: DiagnoseSettings) -> tuple[str, ...]:
-    """The effects the closed-loop search tries: ``settings.candidates``, or the whole library
-    as registered now."""
-    return settings.candidates if settings.candidates is not None else effect_names()
+    """The effects the closed-loop search tries: ``settings.candidates``, or the library as
+    registered now but for the effects tried only when asked for
+    (:attr:`Effect.tried_by_default`)."""
+    if settings.candidates is not None:
+        return settings.candidates
+    return default_candidates()
 
 
 def min_position_size(settings: DiagnoseSettings, effect: str) -> float:

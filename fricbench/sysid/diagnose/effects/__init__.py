@@ -29,7 +29,8 @@ from fricbench.registry import Registry
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 
 __all__ = ["Effect", "Probe", "effect_registry", "get_effect", "effect_names", "EFFECT_NAMES",
-           "named_as", "excluded", "free_indices", "size_entries", "describe_parameters"]
+           "named_as", "excluded", "default_candidates", "free_indices", "size_entries",
+           "describe_parameters"]
 
 effect_registry: Registry[Effect] = Registry("effect", "fricbench.effects")
 
@@ -83,6 +84,12 @@ def effect_names() -> tuple[str, ...]:
 
 EFFECT_NAMES = effect_names()
 """The built-in effects (plug-ins registered later are in :func:`effect_names`)."""
+
+
+def default_candidates() -> tuple[str, ...]:
+    """The effects the closed-loop search tries when the user names none: the library as
+    registered now, but for those tried only when asked for (:attr:`Effect.tried_by_default`)."""
+    return tuple(n for n in effect_names() if get_effect(n).tried_by_default)
 
 
 def named_as(name: str) -> str:

@@ -62,6 +62,10 @@ class Effect(ABC):
         Effects that may not be in a model with it: the same term in another shape (a
         friction profile of another number of knots, the gradient and sinusoid). Either side
         listing the other is enough.
+    tried_by_default : bool
+        Among the candidates the closed-loop search tries when the user names none
+        (``settings.candidates`` None); False: tried only when asked for (``--try NAME``), a
+        candidate whose held-out record does not yet earn it a place by default.
     refines : str or None
         The effect this one is a further term of (a harmonic of the cogging): it is found only
         with it, and a run that names it names that effect (what a judge of the diagnosis
@@ -121,6 +125,7 @@ class Effect(ABC):
     requires: ClassVar[tuple[str, ...]] = ()
     excludes: ClassVar[tuple[str, ...]] = ()
     refines: ClassVar[str | None] = None
+    tried_by_default: ClassVar[bool] = True
     needs_reversals: ClassVar[bool] = False
     shown_at_rests: ClassVar[bool] = False
     summary: ClassVar[str]
