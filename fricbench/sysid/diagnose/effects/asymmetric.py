@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.effects.base import Effect, Probe
+from fricbench.sysid.diagnose.effects.base import Effect, Probe, signed_level, signed_level_clip
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 
@@ -43,12 +43,12 @@ class AsymmetricFriction(Effect):
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         if i == CL.I_DB:
             return Param(i, False, -b.damping_max, b.damping_max, b.damping_scale)
-        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
+        return signed_level(i, b)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
         if i == CL.I_DB:
             return float(np.clip(value, -0.9 * b.damping_max, 0.9 * b.damping_max))
-        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
+        return signed_level_clip(value, b)
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:

@@ -38,6 +38,18 @@ if TYPE_CHECKING:
 
 __all__ = ["Effect", "Probe"]
 
+def signed_level(i: int, b: Bounds) -> Param:
+    """Bounds of a signed force level of either sign (a constant force, a ripple's amplitude,
+    a direction's share of the friction): within twice the run's friction level, on the force
+    scale (a level like the friction's, not a multiple of the motion's inertial force)."""
+    return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
+
+
+def signed_level_clip(value: float, b: Bounds) -> float:
+    """A linearised start of a :func:`signed_level` clipped within 1.5 friction levels."""
+    return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
+
+
 Probe = tuple[dict[int, float], dict[int, float]]
 """One probe of the position screen: ``(changes, fixed)``. Each changed entry gives a
 finite-difference column (the entry set to the value, the rest as in the model with the fixed

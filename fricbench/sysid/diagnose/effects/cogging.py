@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.effects.base import Effect, Probe
+from fricbench.sysid.diagnose.effects.base import Effect, Probe, signed_level, signed_level_clip
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 from fricbench.sysid.diagnose.signals import period_candidates
@@ -41,12 +41,12 @@ class Cogging(Effect):
             return Param(i, True, value * 0.98, value * 1.02, 1.0, trust=True)
         # a detent force is a force level like the friction's, not a multiple of the motion's
         # inertial force: its bounds follow the friction levels' (Bounds.friction)
-        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
+        return signed_level(i, b)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
         if i == CL.I_COGP:
             return value
-        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
+        return signed_level_clip(value, b)
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:

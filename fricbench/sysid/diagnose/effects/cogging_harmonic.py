@@ -10,32 +10,46 @@ orders is chosen by the same held-out error, penalised per parameter, as every o
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.effects.base import Effect, Probe
+from fricbench.sysid.diagnose.effects.base import Effect, Probe, signed_level, signed_level_clip
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
+
+_ENTRIES = {2: (CL.I_COGH2A, CL.I_COGH2B), 3: (CL.I_COGH3A, CL.I_COGH3B)}
+"""The plant entries of each order's sine and cosine amplitudes."""
 
 
 class _CoggingHarmonic(Effect):
     """``F = A_s sin(n 2 pi x / lambda) + A_c cos(n 2 pi x / lambda)``, ``lambda`` the
     fundamental's period (:attr:`order` ``n``)."""
 
-    order: int
+    order: ClassVar[int]
     kind = "force"
     requires = ("cogging",)
     refines = "cogging"
 
+    def __init_subclass__(cls, order: int = 0, **kwargs: Any) -> None:
+        # each order is a registered class of its own: its id and its two plant entries
+        super().__init_subclass__(**kwargs)
+        if order:
+            cls.order = order
+            cls.name = f"cogging_harmonic_{order}"
+            cls.summary = (f"the cogging's harmonic of order {order} (a ripple that is not a "
+                           "pure sinusoid)")
+            cls.parameters = _ENTRIES[order]
+            cls.force_parameters = _ENTRIES[order]
+
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
         # a force level like the fundamental's (Bounds.friction): a harmonic of a detent
         # force is not larger than the friction the fundamental is bounded by
-        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
+        return signed_level(i, b)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
-        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
+        return signed_level_clip(value, b)
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:
@@ -59,21 +73,9 @@ class _CoggingHarmonic(Effect):
                 "phase_rad": float(np.arctan2(c, a))}
 
 
-class CoggingHarmonic2(_CoggingHarmonic):
+class CoggingHarmonic2(_CoggingHarmonic, order=2):
     """The cogging's second harmonic (half its period)."""
 
-    name = "cogging_harmonic_2"
-    order = 2
-    summary = "the cogging's 2nd harmonic (a ripple that is not a pure sinusoid)"
-    parameters = (CL.I_COGH2A, CL.I_COGH2B)
-    force_parameters = (CL.I_COGH2A, CL.I_COGH2B)
 
-
-class CoggingHarmonic3(_CoggingHarmonic):
+class CoggingHarmonic3(_CoggingHarmonic, order=3):
     """The cogging's third harmonic (a third of its period)."""
-
-    name = "cogging_harmonic_3"
-    order = 3
-    summary = "the cogging's 3rd harmonic (a ripple that is not a pure sinusoid)"
-    parameters = (CL.I_COGH3A, CL.I_COGH3B)
-    force_parameters = (CL.I_COGH3A, CL.I_COGH3B)

@@ -46,10 +46,6 @@ def profile_name(n_knots: int) -> str:
     return f"friction_profile_{n_knots}"
 
 
-def _shapes() -> tuple[str, ...]:
-    return tuple(profile_name(n) for n in PROFILE_KNOTS)
-
-
 class FrictionProfile(Effect):
     """``s(x) = 1 + l(x)``, ``l`` linear between :attr:`n_knots` knots over the travelled range.
 
@@ -69,6 +65,18 @@ class FrictionProfile(Effect):
     # as the gradient and sinusoid: a friction level changed along a stick-slip motion,
     # as far from linear as stiction, so fitted for real when its linearised screen fails
     fitted_when_screen_fails = True
+
+    def __init_subclass__(cls, n_knots: int = 0, **kwargs: Any) -> None:
+        # each knot count is a registered class of its own: its id, its parameters (the knots
+        # after the first, held at 0) and the other counts it excludes follow from the count
+        super().__init_subclass__(**kwargs)
+        if n_knots:
+            cls.n_knots = n_knots
+            cls.name = profile_name(n_knots)
+            cls.summary = f"friction levels along the stroke, linear between {n_knots} knots"
+            cls.parameters = tuple(PL.PD_KNOT0 + j for j in range(1, n_knots))
+            cls.relative_parameters = cls.parameters
+            cls.excludes = tuple(profile_name(k) for k in PROFILE_KNOTS if k != n_knots)
 
     def switched_on(self, p: np.ndarray, prep: Prepared) -> np.ndarray:
         lo, hi = float(np.min(prep.x)), float(np.max(prep.x))
@@ -120,38 +128,13 @@ class FrictionProfile(Effect):
         return out
 
 
-def _knots(n: int) -> tuple[int, ...]:
-    return tuple(PL.PD_KNOT0 + j for j in range(1, n))
-
-
-class FrictionProfile3(FrictionProfile):
+class FrictionProfile3(FrictionProfile, n_knots=3):
     """A friction profile of 3 knots (2 parameters)."""
 
-    name = profile_name(3)
-    n_knots = 3
-    summary = "friction levels along the stroke, linear between 3 knots"
-    parameters = _knots(3)
-    relative_parameters = _knots(3)
-    excludes = tuple(s for s in _shapes() if s != profile_name(3))
 
-
-class FrictionProfile5(FrictionProfile):
+class FrictionProfile5(FrictionProfile, n_knots=5):
     """A friction profile of 5 knots (4 parameters)."""
 
-    name = profile_name(5)
-    n_knots = 5
-    summary = "friction levels along the stroke, linear between 5 knots"
-    parameters = _knots(5)
-    relative_parameters = _knots(5)
-    excludes = tuple(s for s in _shapes() if s != profile_name(5))
 
-
-class FrictionProfile9(FrictionProfile):
+class FrictionProfile9(FrictionProfile, n_knots=9):
     """A friction profile of 9 knots (8 parameters)."""
-
-    name = profile_name(9)
-    n_knots = 9
-    summary = "friction levels along the stroke, linear between 9 knots"
-    parameters = _knots(9)
-    relative_parameters = _knots(9)
-    excludes = tuple(s for s in _shapes() if s != profile_name(9))

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.effects.base import Effect, Probe
+from fricbench.sysid.diagnose.effects.base import Effect, Probe, signed_level, signed_level_clip
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 
@@ -23,10 +23,10 @@ class ForceOffset(Effect):
     force_parameters = (CL.I_OFF,)
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
-        return Param(i, False, -2.0 * b.friction, 2.0 * b.friction, b.force)
+        return signed_level(i, b)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
-        return float(np.clip(value, -1.5 * b.friction, 1.5 * b.friction))
+        return signed_level_clip(value, b)
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:
