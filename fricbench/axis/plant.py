@@ -132,6 +132,10 @@ FASTMATH = {"arcp", "contract", "reassoc", "nsz", "afn"}
  PD_KNOT0) = range(44)
 PD_MAX_KNOTS = 12
 """Most knots of the friction profile ``l(x)`` (columns ``pd_profile_0`` ..)."""
+PD_LEVEL_RANGE = (-0.9, 2.0)
+"""Relative level changes a knot of the friction profile may take: a level at least a tenth of
+the reference level, at most three times it (env specs are checked against it, the diagnosis
+fits within it)."""
 COG_H2_SIN, COG_H2_COS, COG_H3_SIN, COG_H3_COS = range(PD_KNOT0 + PD_MAX_KNOTS,
                                                       PD_KNOT0 + PD_MAX_KNOTS + 4)
 """The cogging's second and third harmonics (a linear motor's magnets, a motor's slots and
@@ -883,7 +887,8 @@ __all__ = [
     "DELAY_MAX", "FASTMATH", "N_PLANT", "N_PLANT_COMPLIANT", "N_PLANT_RIGID", "N_PLANT_STATE",
     "PLANT_NAMES", "Plant",
     "actuate", "advance", "compliance_constants", "compliance_load_constants", "constants",
-    "default_row", "friction_scale", "profile_level", "PD_MAX_KNOTS", "PD_START", "PD_SPAN",
+    "default_row", "friction_scale", "profile_level", "PD_MAX_KNOTS", "PD_LEVEL_RANGE",
+    "PD_START", "PD_SPAN",
     "PD_NKNOTS", "PD_KNOT0", "N_PLANT_UNPROFILED", "COG_H2_SIN", "COG_H2_COS", "COG_H3_SIN",
     "COG_H3_COS", "N_PLANT_FUNDAMENTAL",
     "levels", "load_position", "pad_row", "position_force", "sense", "sliding_force",

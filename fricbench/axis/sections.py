@@ -326,10 +326,11 @@ class Effects:
         object.__setattr__(self, "cogging_harmonic_phases", phases)
 
     def _check_profile(self) -> None:
-        """The friction profile: a sequence of at most ``PD_MAX_KNOTS`` changes in -0.9 .. 2,
+        """The friction profile: a sequence of at most ``PD_MAX_KNOTS`` changes within
+        ``PD_LEVEL_RANGE`` (-0.9 .. 2),
         a finite start and, with two knots or more, a positive span."""
         knots = _numbers("friction_profile", self.friction_profile, PL.PD_MAX_KNOTS)
-        values = tuple(check_range(f"friction_profile[{i}]", v, -0.9, 2.0)
+        values = tuple(check_range(f"friction_profile[{i}]", v, *PL.PD_LEVEL_RANGE)
                        for i, v in enumerate(knots))
         # a TOML array arrives as a list: stored as a tuple, so the section stays hashable
         object.__setattr__(self, "friction_profile", values)

@@ -29,6 +29,9 @@ PLUMBING = {
     ("command.py", "EXIT_BAD_INPUT"): "an exit status of the command line",
     ("criterion.py", "UNIDENTIFIED"): "a sentinel: the variance factor of a direction the data "
                                       "do not determine, large enough to read as unknown",
+    ("effects/friction_profile.py", "PROFILE_KNOTS"): "the candidate library's make-up: the "
+                                                      "knot counts of the registered profiles, "
+                                                      "each an effect of its own",
     ("models.py", "_DIVERGED"): "a sentinel: the residual given to the samples of a diverged "
                                 "simulation, in noise-floor units",
 }

@@ -31,14 +31,11 @@ from fricbench.sysid.diagnose.effects.base import Effect, Probe
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
 
-__all__ = ["FrictionProfile", "PROFILE_KNOTS", "profile_name", "LEVEL_RANGE"]
+__all__ = ["FrictionProfile", "PROFILE_KNOTS", "profile_name"]
 
 PROFILE_KNOTS = (3, 5, 9)
-"""Knot counts of the registered profiles (spacings halved from one to the next)."""
-
-LEVEL_RANGE = (-0.9, 2.0)
-"""Relative level changes a profile's knot may take: a level at least a tenth of the Coulomb
-level at the range's start, at most three times it (the environments' own range)."""
+"""Knot counts of the registered profiles (spacings halved from one to the next): the
+candidate library's make-up, as the registered effects are, not a setting."""
 
 
 def profile_name(n_knots: int) -> str:
@@ -91,10 +88,10 @@ class FrictionProfile(Effect):
         return q
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
-        return Param(i, False, LEVEL_RANGE[0], LEVEL_RANGE[1], 0.3)
+        return Param(i, False, PL.PD_LEVEL_RANGE[0], PL.PD_LEVEL_RANGE[1], 0.3)
 
     def clip(self, i: int, value: float, b: Bounds) -> float:
-        return float(np.clip(value, 0.5 * LEVEL_RANGE[0], 0.5 * LEVEL_RANGE[1]))
+        return float(np.clip(value, 0.5 * PL.PD_LEVEL_RANGE[0], 0.5 * PL.PD_LEVEL_RANGE[1]))
 
     def probe_step(self, i: int, value: float, b: Bounds) -> float:
         return 0.2 * abs(value) + 0.05
