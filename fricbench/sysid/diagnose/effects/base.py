@@ -72,8 +72,8 @@ class Effect(ABC):
         friction level).
     excludes : tuple of str
         Effects that may not be in a model with it: the same term in another shape (a
-        friction profile of another number of knots, the gradient and sinusoid). Either side
-        listing the other is enough.
+        friction profile of another number of knots). Either side listing the other is
+        enough.
     tried_by_default : bool
         Among the candidates the closed-loop search tries when the user names none
         (``settings.candidates`` None); False: tried only when asked for (``--try NAME``), a
