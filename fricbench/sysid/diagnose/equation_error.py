@@ -43,9 +43,11 @@ __all__ = ["EquationErrorFit", "loop_by_equation_error", "delay_steps"]
 
 
 def delay_steps(ts: float) -> tuple[int, ...]:
-    """The delays of ``settings.delay_steps`` a loop of period ``ts`` (s) may have."""
+    """The delays of ``settings.delay_steps`` a loop of period ``ts`` (s) may have: at most the
+    grid's longest counted in periods of the drive's own loop (``settings.loop_ts``)."""
     cfg = defaults()
-    return tuple(d for d in cfg.delay_steps if d * ts <= cfg.max_delay_s * (1.0 + 1e-9))
+    longest = max(cfg.delay_steps) * cfg.loop_ts
+    return tuple(d for d in cfg.delay_steps if d * ts <= longest * (1.0 + 1e-9))
 
 _FRICTION = ("coulomb_friction", "stribeck_friction")
 

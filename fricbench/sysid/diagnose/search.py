@@ -87,10 +87,12 @@ def effects_tried(settings: DiagnoseSettings) -> tuple[str, ...]:
 
 
 def min_position_size(settings: DiagnoseSettings, effect: str) -> float:
-    """Smallest rms position contribution of ``effect``, in noise floors."""
+    """Smallest rms position contribution of ``effect``, in noise floors: an effect that is not
+    friction must stand above what the verdict calls "at the floor" (``settings.floor_factor``
+    floors)."""
     if get_effect(effect).friction:
         return settings.min_position_share
-    return max(settings.min_position_share, settings.min_position_share_other)
+    return max(settings.min_position_share, settings.floor_factor)
 
 
 def required_gain(settings: DiagnoseSettings, n_params: int, effect: str | None = None,

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 45 today; the one-method issue's target is at most 15.**
+**Tuned values: 43 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -136,13 +136,13 @@ class DiagnoseSettings:
         (with an effort). Tuned: set by hand with the first search (commit 90b5a80).
     min_position_share : float
         Closed-loop search. Smallest rms position contribution of a friction effect, in noise
-        floors. Tuned: set by hand with the first search (commit 90b5a80).
-    min_position_share_other : float
-        Closed-loop search. The same for an effect that is not friction: its whole signature
-        in the free-run position must stand above the noise floor, else a flexible effect that
-        cuts the held-out error is fitting what the loop model misses. Tuned on the second
-        simulator's tuning seeds (1.0 in commit 665d33b, raised to 1.5 after a false thermal
-        drift at 1.19 floors; the drifts present were named at 2.5 floors and more).
+        floors. An effect that is not friction needs :attr:`floor_factor` floors at least: its
+        whole signature in the free-run position must stand above what the verdict calls "at
+        the floor", else a flexible effect that cuts the held-out error is fitting what the
+        loop model misses (this was a field of its own, ``min_position_share_other``, tuned to
+        the same 1.5 on the second simulator's tuning seeds: 1.0 in commit 665d33b, raised
+        after a false thermal drift at 1.19 floors; the drifts present were named at 2.5
+        floors and more). Tuned: set by hand with the first search (commit 90b5a80).
     max_steps : int
         Closed-loop search. Most effects added. Not tuned: a budget.
     n_confirm : int
@@ -224,12 +224,12 @@ class DiagnoseSettings:
         log samples (0: no filter). Not tuned: a grid of octaves.
     delay_steps : tuple of int
         Loop structure. Command delays tried, in log samples (a drive's computation and power
-        stage). Not tuned: a grid.
-    max_delay_s : float
-        Loop structure. Longest command delay a model is given, s: a drive's computation and
-        power stage delay its command by a few periods of a fast loop. Tuned on the second
-        simulator's tuning seeds (a 10 ms delay of a 100 Hz log lost its friction; commit
-        954e7eb).
+        stage). A model's delay is at most the grid's longest counted in periods of the
+        drive's own loop (``max(delay_steps) * loop_ts``, 3 ms): a drive's computation and
+        power stage delay its command by a few periods of its fast loop, whatever the log's
+        rate (a 10 ms delay of a 100 Hz log lost its friction on the second simulator's tuning
+        seeds; this was a field of its own, ``max_delay_s``, set to 3 ms in commit 954e7eb).
+        Not tuned: a grid.
     ki_kvff_min : float
         Loop structure. Smallest ``|kvff - 1|`` from which the velocity integral's rate ``ki``
         is read off the equation error's regression (nearer 1 the law is taken for a PID).
@@ -370,9 +370,11 @@ class DiagnoseSettings:
         at the floor: the verdict's "at the floor"; the mode comparison is skipped when the
         effort's loop is there already; and with an effort, once no force effect cuts the
         held-out effort error, force effects are judged on the free-run position until its
-        residual is at the floor. One value for the three, which were two fields of the same
-        value (the verdict's, set by hand in commit 3998456; the position phase's, tuned on the
-        second simulator's tuning seeds in commit 8b6c1cf). Tuned.
+        residual is at the floor; an effect that is not friction must stand above it
+        (:attr:`min_position_share`). One value for the four, which were three fields of the
+        same value (the verdict's, set by hand in commit 3998456; the position phase's, tuned
+        on the second simulator's tuning seeds in commit 8b6c1cf; the non-friction effect's
+        smallest size, tuned there in commit 665d33b). Tuned.
     explained_share : float
         Verdict. Share of the residual's variance a structure must carry to be named. Not
         tuned: the larger part.
@@ -462,7 +464,6 @@ class DiagnoseSettings:
     gain_per_param: float = _setting(0.01, tuned=True, check=_NONNEG)
     min_force_share: float = _setting(0.005, tuned=True, check=_NONNEG)
     min_position_share: float = _setting(0.5, tuned=True, check=_NONNEG)
-    min_position_share_other: float = _setting(1.5, tuned=True, check=_NONNEG)
     max_steps: int = _setting(8, tuned=False, check=_COUNT0)
     n_confirm: int = _setting(3, tuned=False, check=_COUNT)
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
@@ -486,7 +487,6 @@ class DiagnoseSettings:
     filter_steps: tuple[float, ...] = _setting((0.0, 0.5, 1.0, 2.0, 4.0, 8.0), tuned=False,
                                                check=_NONNEGS)
     delay_steps: tuple[int, ...] = _setting((0, 1, 2, 3), tuned=False, check=_COUNTS0)
-    max_delay_s: float = _setting(3.0e-3, tuned=True, check=_NONNEG)
     ki_kvff_min: float = _setting(0.02, tuned=True, check=_POSITIVE)
     ki_min_ratio: float = _setting(0.02, tuned=True, check=_POSITIVE)
     pid_kpi_min_ratio: float = _setting(1.0e-3, tuned=True, check=_POSITIVE)
