@@ -138,8 +138,14 @@ def test_a_period_at_a_multiple_of_the_quantum_is_the_sensor(multiple: int) -> N
     prep = prepare(run)
     assert prep.noise.quantum == pytest.approx(q, rel=1e-3)
     b = Bounds(force=1.0, stroke=prep.stroke, v_max=1.2, duration=8.0, ts=2e-3, noise=q / 3.5)
-    why = artefact(_cogging_model(multiple * q * rng.uniform(0.97, 1.03)), "cogging", prep, b)
+    # a period the stroke cannot tell from the quantum's multiple: within one cycle over it
+    resolution = multiple * q / prep.stroke
+    off = rng.uniform(-0.9, 0.9) * resolution
+    why = artefact(_cogging_model(multiple * q * (1.0 + off)), "cogging", prep, b)
     assert why is not None and "quantum" in why
+    # one told apart from it: a cycle and a half more or less over the stroke
+    assert artefact(_cogging_model(multiple * q * (1.0 + 1.5 * resolution)), "cogging", prep,
+                    b) is None
     assert artefact(_cogging_model(prep.stroke / 3.3), "cogging", prep, b) is None
     assert "stroke" in str(artefact(_cogging_model(1.5 * prep.stroke), "cogging", prep, b))
 

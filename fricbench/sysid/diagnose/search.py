@@ -699,13 +699,15 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
              w: np.ndarray | None = None) -> str | None:
     """Why the fitted effect ``name`` of ``model`` is a sensor or fit artefact, or None.
 
-    * a spatial period within ``settings.quantum_period_tolerance`` of a small multiple of the
-      sensor quantum (the staircase of a coarse sensor leaves a residual with that period);
+    * a spatial period that the run cannot tell from a small multiple of the sensor quantum
+      (the staircase of a coarse sensor leaves a residual with that period): two periods
+      ``p`` and ``p'`` differ by one cycle over the stroke ``L`` when ``|p / p' - 1| = p /
+      L``, the finest a run of that stroke resolves (Rayleigh's criterion, spatial);
     * the spatial period of a periodic term (:attr:`Effect.periodic`) longer than the stroke
       (a level change, not a period);
-    * a spatial period within ``settings.quantum_period_tolerance`` of another effect's in the model
-      (a friction varying along the stroke at the cogging's period is what a cogging that is
-      not a pure sine leaves, not a second effect);
+    * a spatial period the run cannot tell (as above) from another effect's in the model (a
+      friction varying along the stroke at the cogging's period is what a cogging that is not
+      a pure sine leaves, not a second effect);
     * a shape parameter (a period, a time constant, a Stribeck velocity) that ended on a
       bound of its physical range (the optimum lies outside it: the effect stands in for
       something else), and so does a size whose range is physical
@@ -720,8 +722,10 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
     if effect.period_parameter is not None:
         per = float(p[effect.period_parameter])
         q = prep.noise.quantum
+        # the relative resolution of a period over the run's stroke: one cycle more or less
+        resolution = per / prep.stroke if prep.stroke > 0.0 else math.inf
         for k in defaults().quantum_multiples:
-            if q > 0.0 and abs(per / (k * q) - 1.0) <= defaults().quantum_period_tolerance:
+            if q > 0.0 and abs(per / (k * q) - 1.0) <= resolution:
                 times = "" if k == 1 else f"{k} x "
                 return (f"{name}: its period {per:.4g} is {times}the sensor quantum "
                         f"{q:.4g}: the sensor's staircase, not the axis")
@@ -733,7 +737,7 @@ def artefact(model: GreyBox, name: str, prep: Prepared, b: Bounds,
             if other == name or o.period_parameter is None:
                 continue
             per_o = float(p[o.period_parameter])
-            if per_o > 0.0 and abs(per / per_o - 1.0) <= defaults().quantum_period_tolerance:
+            if per_o > 0.0 and abs(per / per_o - 1.0) <= resolution:
                 return (f"{name}: its period {per:.4g} is that of {other} ({per_o:.4g}): the "
                         f"same periodic term twice (the residual of {other}'s shape), not a "
                         "second effect")

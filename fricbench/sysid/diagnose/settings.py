@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 43 today; the one-method issue's target is at most 15.**
+**Tuned values: 42 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -165,13 +165,12 @@ class DiagnoseSettings:
         the three, which were two fields of the same value (the position's, set by hand in
         commit 3998456; the effort's, tuned on the shared DC motor's step run and the second
         simulator's tuning seeds, commits cdaf206, cde39a0). Tuned.
-    quantum_period_tolerance : float
-        Closed-loop search. A spatial period within this fraction of a small multiple of the
-        sensor quantum is the sensor's staircase, and within it of another effect's period is
-        the same term twice (an artefact). Tuned on the second simulator's tuning seeds (commit
-        5c7b916).
     quantum_multiples : tuple of int
-        Closed-loop search. The multiples of the sensor quantum a period is compared with. Not
+        Closed-loop search. The multiples of the sensor quantum a fitted period is compared with
+        (a period the run cannot tell from one of them, nor from another effect's, is an
+        artefact: two periods are told apart when they differ by a cycle over the stroke,
+        :func:`~fricbench.sysid.diagnose.search.artefact`; that was a tolerance of 5 %,
+        ``quantum_period_tolerance``, tuned on the second simulator's tuning seeds). Not
         tuned: the small multiples.
     eval_box : float
         Closed-loop search (no effort). While a candidate is judged, each loop gain may move by
@@ -469,7 +468,6 @@ class DiagnoseSettings:
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
     one_block_worse: float = _setting(1.5, tuned=True, check=_AT_LEAST_1)
     tolerance: float = _setting(0.02, tuned=True, check=_NONNEG)
-    quantum_period_tolerance: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
     quantum_multiples: tuple[int, ...] = _setting((1, 2, 3, 4), tuned=False, check=_COUNTS)
     eval_box: float = _setting(2.0, tuned=True, check=_AT_LEAST_1)
     refit_box: float = _setting(3.0, tuned=True, check=_AT_LEAST_1)
