@@ -13,9 +13,10 @@ Model (plant row of :mod:`fricbench.axis.plant`, forces in the effort's unit)::
     M dv/dt = u - B v - F_eff(x, v)      always M, B; effects from the registry add F_eff terms
 
 The effects are those of :mod:`fricbench.sysid.diagnose.effects` (their plant entries, as
-many as each frees beside the others); a period is fixed here at a value set from the run's
-scales, while the shapes of the effects in :data:`DATA_SHAPED` (a resonance, a Stribeck
-velocity) are fitted with their sizes, from starts each effect finds in the run.
+many as each frees beside the others); a period is held (the position-dependent friction's at
+twice the stroke, the cogging's where its starts from the run put it: :data:`DATA_STARTED`),
+while the shapes of the effects in :data:`DATA_SHAPED` (a resonance, a Stribeck velocity) are
+fitted with their sizes, from starts each effect finds in the run.
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.signals import disturbance_warning, noise_floor, sensor_lines
 
-__all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS",
+__all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS", "DATA_STARTED",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
            "print_open_loop_summary", "simulate_model", "free_run_errors",
            "periodic_statistics", "free_run_floor"]
@@ -57,12 +58,19 @@ BASE_EFFECTS: tuple[str, ...] = ("coulomb_friction", "force_offset")
 """Effects of every open-loop model (with the mass and the viscous damping)."""
 
 CANDIDATE_EFFECTS: tuple[str, ...] = ("asymmetric_friction", "stribeck_friction",
-                                      "position_dependent_friction", "cogging", "compliance")
-"""Effects the forward search tries, in this order."""
+                                      "position_dependent_friction", "cogging", "compliance",
+                                      "cogging_harmonic_2", "cogging_harmonic_3")
+"""Effects the forward search tries, in this order (a cogging's harmonics once it is in)."""
 
 DATA_SHAPED: tuple[str, ...] = ("compliance", "stribeck_friction")
 """Effects whose shape (a resonance and its damping, a Stribeck velocity) is fitted too, from
 starts found in the data (:meth:`Effect.open_loop_starts`)."""
+
+DATA_STARTED: tuple[str, ...] = (*DATA_SHAPED, "cogging")
+"""Effects whose starts are found in the data: those of :data:`DATA_SHAPED`, and the cogging,
+whose period the inverse dynamics' spectrum against position gives and the fit holds (a
+period fitted by free-run error wanders between the minima its phase over the stroke makes:
+0.0184 m from a start of 0.01426 m for a true 0.01424 m on a test run)."""
 
 Log = Callable[[str], None]
 
@@ -168,9 +176,10 @@ def _switch_on(p: np.ndarray, name: str, sc: dict[str, float]) -> np.ndarray:
     if name == "position_dependent_friction":
         q[PL.PD_PERIOD] = 2.0 * sc["stroke"]
         q[PL.PD_CENTER] = sc["center"]
-    elif name == "cogging":
-        # a period of twice the stroke: a force that varies smoothly along the stroke
-        q[PL.COG_PERIOD] = 2.0 * sc["stroke"]
+    elif name == "cogging" and not q[PL.COG_PERIOD] < sc["stroke"]:
+        # inside its range until a start from the data gives the period (a force varying
+        # smoothly along the stroke is the position-dependent friction's)
+        q[PL.COG_PERIOD] = 0.5 * sc["stroke"]
     return q
 
 
@@ -359,7 +368,7 @@ def _fit_multistart(effects: tuple[str, ...], effort: np.ndarray, y: np.ndarray,
             q = _switch_on(q, name, sc)
         rows.append(q)
     for name in effects:
-        if name in DATA_SHAPED:
+        if name in DATA_STARTED:
             rows = _data_starts(name, rows, effort, y, ts, segments, n_init, sel)
     best: _Fit | None = None
     for q in rows:
@@ -389,7 +398,9 @@ def _data_starts(name: str, rows: list[np.ndarray], effort: np.ndarray, y: np.nd
                  ts: float, segments: Sequence[tuple[int, int]], n_init: int,
                  sel: np.ndarray) -> list[np.ndarray]:
     """Rows where effect ``name`` is off get its starts from the data (the training samples
-    ``sel``); of those, the best ``settings.n_data_starts`` by free-run error are kept."""
+    ``sel``); of those, the best ``settings.n_data_starts`` by free-run error are kept, or all
+    of them for an effect whose shape the fit holds (a cogging's period: a ripple at the
+    right period without its harmonics can start further from the run than none at all)."""
     eff = get_effect(name)
     size = next(i for i in eff.parameters if i not in eff.shape_parameters)
     found = eff.open_loop_starts(effort[sel], y[sel], ts)
@@ -405,6 +416,8 @@ def _data_starts(name: str, rows: list[np.ndarray], effort: np.ndarray, y: np.nd
             expanded.append(r)
     if not expanded:
         return keep or rows
+    if name not in DATA_SHAPED:
+        return keep + expanded
     res = _segments_residual(np.stack(expanded), effort, y, ts, segments, n_init)
     order = np.argsort(np.sum(res ** 2, axis=1))[:defaults().n_data_starts]
     return keep + [expanded[int(i)] for i in order]

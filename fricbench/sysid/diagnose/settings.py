@@ -14,10 +14,10 @@ the uncertainty) reads it; code without one reads :func:`defaults` when it is ca
 copy taken at import. What stays outside, being no tuned value: the exit codes of
 ``command.py``, the plant's index aliases and the legacy plant layout of ``closed_loop.py``
 (``I_BL_LOAD``, ``_LEGACY``), tuples of effect or file names (``open_loop.BASE_EFFECTS``,
-``CANDIDATE_EFFECTS``, ``DATA_SHAPED``, ``report.PLOTS``, ``twin.PLANT_PLACES`` and its
-``_POLAR`` pairs), and two sentinels: the variance factor of an undetermined direction
-(``criterion.UNIDENTIFIED``) and the residual given to the samples of a diverged simulation
-(``models._DIVERGED``).
+``CANDIDATE_EFFECTS``, ``DATA_SHAPED``, ``DATA_STARTED``, ``report.PLOTS``,
+``twin.PLANT_PLACES`` and its ``_POLAR`` pairs), and two sentinels: the variance factor of an
+undetermined direction (``criterion.UNIDENTIFIED``) and the residual given to the samples of a
+diverged simulation (``models._DIVERGED``).
 """
 
 from __future__ import annotations

@@ -94,6 +94,58 @@ class Cogging(Effect):
         df = 1.0 / best * (0.01 if not start else 0.02)
         return (math.log(1.0 / (1.0 / best + df)), math.log(1.0 / max(1.0 / best - df, 1e-12)))
 
+    def open_loop_starts(self, effort: np.ndarray, y: np.ndarray, ts: float
+                         ) -> list[dict[int, float]]:
+        """The periods at which the force a rigid body with Coulomb friction and an offset
+        leaves (its inverse dynamics, filtered differences) varies with the position, as in
+        the closed loop's screen (:func:`~fricbench.sysid.diagnose.signals.period_candidates`),
+        each refined by that inverse dynamics with the ripple's first two orders in it, with
+        the fundamental's amplitudes it gives."""
+        from scipy.optimize import minimize_scalar
+        from scipy.signal import butter, filtfilt
+
+        from fricbench.sysid.diagnose.settings import defaults
+
+        if y.size < 50:
+            return []
+        # the inverse dynamics' filter: a fifth of the sampling rate, at most 100 Hz
+        b, a = butter(4, min(100.0, 0.2 / ts) * 2.0 * ts)
+        yf, uf = filtfilt(b, a, y), filtfilt(b, a, effort)
+        v = np.gradient(yf, ts)
+        acc = np.gradient(v, ts)
+        v_max = float(np.max(np.abs(v)))
+        moving = np.abs(v) > defaults().sliding_share * v_max
+        if np.count_nonzero(moving) < 50:
+            return []
+        X = np.column_stack([acc, v, np.sign(v), np.ones_like(v)])
+        theta = np.linalg.lstsq(X[moving], uf[moving], rcond=None)[0]
+        r = uf - X @ theta
+        # shortest period: 4 samples at a typical speed; longest: the stroke (a periodic
+        # force's constraint, as in the closed loop)
+        lo = 4.0 * ts * float(np.median(np.abs(v[moving])))
+        stroke = float(np.ptp(yf))
+        xm, um, Xm = yf[moving], uf[moving], X[moving]
+
+        def fitted(per: float) -> tuple[float, np.ndarray]:
+            # the inverse dynamics with the ripple's fundamental and second order at ``per``
+            ph = 2.0 * np.pi * xm / per
+            A = np.column_stack([Xm, np.sin(ph), np.cos(ph), np.sin(2 * ph), np.cos(2 * ph)])
+            coef = np.linalg.lstsq(A, um, rcond=None)[0]
+            return float(np.sum((um - A @ coef) ** 2)), coef
+
+        out: list[dict[int, float]] = []
+        for per in period_candidates(yf, r, moving, lo, stroke, n_best=3):
+            # refined within one cycle over the stroke (the spectrum's resolution, p^2 / L):
+            # a free-run fit holds the period, and 0.4 % off over ten periods turns the
+            # ripple's phase by a quarter of a radian across the stroke
+            half = per * per / stroke
+            best = minimize_scalar(lambda q: fitted(q)[0], bounds=(per - half, per + half),
+                                   method="bounded", options={"xatol": 1e-5 * per})
+            per = float(best.x) if best.success else per
+            coef = fitted(per)[1]
+            out.append({CL.I_COGA: float(coef[4]), CL.I_COGB: float(coef[5]), CL.I_COGP: per})
+        return out
+
     def describe(self, p: np.ndarray, force_unit: str) -> dict[str, float]:
         amp = math.hypot(p[CL.I_COGA], p[CL.I_COGB])
         # A_s sin(th) + A_c cos(th) = A sin(th + phi)
