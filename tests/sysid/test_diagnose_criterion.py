@@ -166,3 +166,25 @@ def test_backward_pass_drops_what_a_later_candidate_made_redundant() -> None:
     # a candidate that another one requires is never removed
     sel = select(score(()), [_C("a"), _C("b", ("a",))], score, DiagnoseSettings())
     assert sel.best.structure == ("a", "b")
+
+
+def test_a_term_whose_cut_shows_with_its_refinement_joins_with_it() -> None:
+    # "parent" alone hardly cuts (its penalty outweighs it); with "child", which requires it,
+    # the two cut half: a greedy search adding one at a time never gets there
+    score = _scorer({"parent": 0.999, "child": 0.5})
+    sel = select(score(()), [_C("parent"), _C("child", ("parent",))], score,
+                 DiagnoseSettings())
+    assert sel.best.structure == ("parent", "child")
+    joined = [d for d in sel.decisions if d["accepted"]]
+    assert [d["candidate"] for d in joined] == ["parent+child"]
+    assert joined[0]["n_params"] == 4
+    # a refinement that does not pay for itself does not ride on its parent's cut
+    score = _scorer({"parent": 0.5, "child": 0.9995})
+    sel = select(score(()), [_C("parent"), _C("child", ("parent",))], score,
+                 DiagnoseSettings())
+    assert sel.best.structure == ("parent",)
+    # nor beyond the budget: a pair counts two
+    score = _scorer({"parent": 0.999, "child": 0.5})
+    sel = select(score(()), [_C("parent"), _C("child", ("parent",))], score,
+                 DiagnoseSettings(max_effects=1))
+    assert sel.best.structure == ()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -22,50 +23,20 @@ from fricbench.sysid.diagnose.open_loop import (
     periodic_statistics,
 )
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from rigid_axis import TS  # noqa: E402
+from rigid_axis import multisine as _multisine  # noqa: E402
+from rigid_axis import simulate_axis as _simulate_stribeck_axis  # noqa: E402
+
 EMPS = os.path.join(os.environ["FRICBENCH_SHARED"], "data", "emps")
-TS = 1e-3
-
-
-def _multisine(n: int, rng: np.random.Generator, amp: float, period_s: float) -> np.ndarray:
-    """Zero-mean multisine, periodic with ``period_s``, random phases."""
-    t = np.arange(n) * TS
-    f0 = 1.0 / period_s
-    u = np.zeros(n)
-    for k in range(1, 8):
-        u += np.sin(2 * np.pi * k * f0 * t + rng.uniform(0, 2 * np.pi)) / k
-    return amp * u / np.max(np.abs(u))
 
 
 def _simulate_axis(u: np.ndarray, m: float, b: float, fc: float, f0: float,
                    n_sub: int = 10) -> np.ndarray:
     """M dv/dt = u - B v - fc sgn(v) - f0, implicit in the friction (sticks exactly): the
-    Stribeck axis below without its hump (fs = fc), the same numbers."""
+    Stribeck axis without its hump (fs = fc), the same numbers."""
     return _simulate_stribeck_axis(u, m, b, fc, fc, 1.0, f0, n_sub)
-
-
-def _simulate_stribeck_axis(u: np.ndarray, m: float, b: float, fc: float, fs: float,
-                            vs: float, f0: float, n_sub: int = 10) -> np.ndarray:
-    """M dv/dt = u - B v - sgn(v) (fc + (fs - fc) exp(-(v / vs)^2)) - f0: sticks exactly
-    (up to fs); while sliding the level is taken at the substep's starting speed."""
-    h = TS / n_sub
-    x = v = 0.0
-    out = np.empty(u.size)
-    for k in range(u.size):
-        out[k] = x
-        for _ in range(n_sub):
-            # v* = (M v + h (u - f0)) / (M + h B); stick when |v*| <= h fs / (M + h B)
-            den = m + h * b
-            v_star = (m * v + h * (u[k] - f0)) / den
-            if abs(v_star) <= h * fs / den:
-                v_new = 0.0
-            else:
-                level = fc + (fs - fc) * np.exp(-((v / vs) ** 2))
-                v_new = v_star - np.sign(v_star) * h * level / den
-                if v_new * v_star < 0.0:
-                    v_new = 0.0
-            x += 0.5 * h * (v + v_new)
-            v = v_new
-    return out
 
 
 def _draw(seed: int) -> tuple[dict[str, float], np.ndarray, np.ndarray]:

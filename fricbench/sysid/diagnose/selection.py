@@ -6,10 +6,14 @@ its optimiser. The search only sees structures (tuples of candidate names), thei
 (:class:`Scored`) and :func:`~fricbench.sysid.diagnose.criterion.criterion_change`.
 
 1. **Forward**: every candidate whose prerequisites are in is scored added to the current
-   structure; the one that lowers the criterion most joins, while one does and the budget
-   (:attr:`~fricbench.sysid.diagnose.settings.DiagnoseSettings.max_effects`) lasts. A
-   candidate that breaks one of its plausibility constraints (:attr:`Scored.violation`) is
-   not eligible, and the decision says why.
+   structure, alone and with each candidate that refines it (requires it: a cogging with its
+   second harmonic); the step that lowers the criterion most joins, while one does and the
+   budget (:attr:`~fricbench.sysid.diagnose.settings.DiagnoseSettings.max_effects`) lasts. A
+   greedy search cannot see a term whose cut shows only with its refinement (a ripple whose
+   second order is 60 % of it cut a 6 s run's held-out error too little alone); the pair is
+   judged by the same criterion, its penalty that of both. A step that breaks one of its
+   plausibility constraints (:attr:`Scored.violation`) is not eligible, and the decision says
+   why.
 2. **Backward**, once: each candidate the forward pass added is scored removed from the final
    structure; it leaves when that does not raise the criterion (a later one made it redundant).
 """
@@ -108,6 +112,25 @@ def _decision(pass_: str, name: str, sc: Scored, change: float, n_eff: float,
     return out
 
 
+def _joined(step: Sequence[Candidate]) -> str:
+    return "+".join(c.name for c in step)
+
+
+def _steps(pool: Sequence[Candidate], structure: tuple[str, ...]
+           ) -> list[tuple[Candidate, ...]]:
+    """The forward steps from ``structure``: each candidate whose prerequisites are in, alone
+    and with each candidate of ``pool`` that requires it and whose other prerequisites are in."""
+    have = set(structure)
+    out: list[tuple[Candidate, ...]] = []
+    for cand in pool:
+        if not set(cand.requires) <= have:
+            continue
+        out.append((cand,))
+        out += [(cand, ref) for ref in pool if ref is not cand and cand.name in ref.requires
+                and set(ref.requires) <= have | {cand.name}]
+    return out
+
+
 def select(base: Scored, candidates: Sequence[Candidate],
            score: Callable[[tuple[str, ...], Scored], Scored], settings: DiagnoseSettings,
            log: Callable[[str], None] | None = None,
@@ -137,41 +160,43 @@ def select(base: Scored, candidates: Sequence[Candidate],
     pool = [c for c in candidates if c.name not in base.structure]
     while pool and len(added) < settings.max_effects:
         n_eff = effective_samples(current.residual, settings.max_lag_share)
-        trials: list[tuple[float, Candidate, Scored]] = []
-        for cand in pool:
-            if not set(cand.requires) <= set(current.structure):
+        trials: list[tuple[float, tuple[Candidate, ...], Scored]] = []
+        for step in _steps(pool, current.structure):
+            if len(added) + len(step) > settings.max_effects:
                 continue
-            sc = score((*current.structure, cand.name), current)
+            names = "+".join(c.name for c in step)
+            sc = score((*current.structure, *(c.name for c in step)), current)
             scores["+".join(sc.structure)] = sc.rms
             change = criterion_change(sc.sse, current.sse, sc.k, current.k, n_eff,
                                       settings.penalty)
-            say(f"  + {cand.name}: held-out rms {describe(sc.rms)}, criterion "
+            say(f"  + {names}: held-out rms {describe(sc.rms)}, criterion "
                 f"{change:+.3g}" + (f" ({sc.violation})" if sc.violation else ""))
-            trials.append((change, cand, sc))
+            trials.append((change, step, sc))
         if not trials:
             break
         eligible = [t for t in trials if t[2].violation is None and math.isfinite(t[0])]
-        for change, cand, sc in trials:
+        for change, step, sc in trials:
             if sc.violation is not None:
-                decisions.append(_decision("forward", cand.name, sc, change, n_eff, False,
+                decisions.append(_decision("forward", _joined(step), sc, change, n_eff, False,
                                            f"constraint: {sc.violation}"))
         best = min(eligible, key=lambda t: t[0]) if eligible else None
-        for change, cand, sc in eligible:
-            if best is not None and cand is best[1] and change < 0.0:
+        for change, step, sc in eligible:
+            if best is not None and step is best[1] and change < 0.0:
                 continue
             why = ("diverged on a held-out block" if not math.isfinite(change) else
                    "does not lower the criterion" if change >= 0.0 else
                    "another candidate lowers it more")
-            decisions.append(_decision("forward", cand.name, sc, change, n_eff, False, why))
+            decisions.append(_decision("forward", _joined(step), sc, change, n_eff, False,
+                                       why))
         if best is None or not best[0] < 0.0:
             break
-        change, cand, sc = best
-        decisions.append(_decision("forward", cand.name, sc, change, n_eff, True,
+        change, step, sc = best
+        decisions.append(_decision("forward", _joined(step), sc, change, n_eff, True,
                                    "lowers the criterion most"))
-        say(f"  -> {cand.name} joins")
+        say(f"  -> {_joined(step)} joins")
         current = sc
-        added.append(cand.name)
-        pool = [c for c in pool if c is not cand]
+        added += [c.name for c in step]
+        pool = [c for c in pool if all(c is not s for s in step)]
     # backward, once: what a later candidate made redundant leaves
     for name in list(added) if len(added) >= 2 else []:
         if name not in current.structure:
