@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import butter, filtfilt, welch
+from scipy.signal import welch
 
 from fricbench.axis import plant as PL
 from fricbench.axis.open_loop import initial_state, simulate_open_loop
@@ -47,7 +47,12 @@ from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, si
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
-from fricbench.sysid.diagnose.signals import disturbance_warning, noise_floor, sensor_lines
+from fricbench.sysid.diagnose.signals import (
+    disturbance_warning,
+    noise_floor,
+    open_loop_motion,
+    sensor_lines,
+)
 
 __all__ = ["OpenLoopModel", "OpenLoopFit", "BASE_EFFECTS", "CANDIDATE_EFFECTS", "DATA_STARTED",
            "fit_open_loop", "search_open_loop", "diagnose_open_loop",
@@ -223,12 +228,7 @@ def _bounds(i: int, ts: float, sc: dict[str, float]) -> tuple[float, float]:
 def _idim_start(effort: np.ndarray, y: np.ndarray, ts: float, effects: Sequence[str],
                 sc: dict[str, float]) -> np.ndarray:
     """Plant row from the inverse dynamics (filtered differences) of the linear terms."""
-    fc = min(100.0, 0.2 / ts)
-    b, a = butter(4, fc * 2.0 * ts)
-    yf = filtfilt(b, a, y)
-    uf = filtfilt(b, a, effort)
-    v = np.gradient(yf, ts)
-    acc = np.gradient(v, ts)
+    _, uf, v, acc = open_loop_motion(effort, y, ts)
     sgn = motion_sign(v, 0.02 * sc["v_max"])
     cols = [acc, v]
     idx = [PL.M, PL.B]
@@ -728,12 +728,7 @@ def periodic_statistics(y_sim: np.ndarray, y: np.ndarray, effort: np.ndarray,
 
 def _effort_relerr(plant: np.ndarray, effort: np.ndarray, y: np.ndarray, ts: float) -> float:
     """Relative rms error (%) of the inverse dynamics ``u = M a + F(x, v)`` on filtered data."""
-    fc = min(100.0, 0.2 / ts)
-    b, a = butter(4, fc * 2.0 * ts)
-    yf = filtfilt(b, a, y)
-    uf = filtfilt(b, a, effort)
-    v = np.gradient(yf, ts)
-    acc = np.gradient(v, ts)
+    yf, uf, v, acc = open_loop_motion(effort, y, ts)
     # u = M a + (B + fv) v + F_f(x, v) + f0 + F_cog(x)
     u_hat = plant[PL.M] * acc + PL.sliding_force(plant, yf, v)
     return float(100.0 * np.linalg.norm(uf - u_hat) / max(float(np.linalg.norm(uf)), 1e-300))

@@ -164,12 +164,11 @@ def select(base: Scored, candidates: Sequence[Candidate],
         for step in _steps(pool, current.structure):
             if len(added) + len(step) > settings.max_effects:
                 continue
-            names = "+".join(c.name for c in step)
             sc = score((*current.structure, *(c.name for c in step)), current)
             scores["+".join(sc.structure)] = sc.rms
             change = criterion_change(sc.sse, current.sse, sc.k, current.k, n_eff,
                                       settings.penalty)
-            say(f"  + {names}: held-out rms {describe(sc.rms)}, criterion "
+            say(f"  + {_joined(step)}: held-out rms {describe(sc.rms)}, criterion "
                 f"{change:+.3g}" + (f" ({sc.violation})" if sc.violation else ""))
             trials.append((change, step, sc))
         if not trials:

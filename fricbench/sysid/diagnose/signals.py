@@ -787,3 +787,20 @@ def _refine_peak(series: np.ndarray, centres: np.ndarray, f0: float, step: float
     res = optimize.minimize_scalar(neg_power, bounds=(f0 - step, f0 + step), method="bounded",
                                    options={"xatol": 1e-4 * step})
     return float(res.x) if res.fun <= neg_power(f0) else float(f0)
+
+
+def open_loop_motion(effort: np.ndarray, y: np.ndarray, ts: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The open loop's inverse-dynamics signals: the position and the effort filtered forward
+    and backward (4th-order Butterworth at a fifth of the sampling rate, 100 Hz at most), and
+    the velocity and acceleration by central differences of the filtered position.
+
+    Returns
+    -------
+    yf, uf, v, acc : ndarray
+    """
+    b, a = signal.butter(4, min(100.0, 0.2 / ts) * 2.0 * ts)
+    yf = signal.filtfilt(b, a, y)
+    uf = signal.filtfilt(b, a, effort)
+    v = np.gradient(yf, ts)
+    return yf, uf, v, np.gradient(v, ts)

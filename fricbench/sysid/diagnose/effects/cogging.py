@@ -12,7 +12,7 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe, signed_level, signed_level_clip
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
-from fricbench.sysid.diagnose.signals import period_candidates
+from fricbench.sysid.diagnose.signals import open_loop_motion, period_candidates
 
 
 class Cogging(Effect):
@@ -102,17 +102,12 @@ class Cogging(Effect):
         each refined by that inverse dynamics with the ripple's first two orders in it, with
         the fundamental's amplitudes it gives."""
         from scipy.optimize import minimize_scalar
-        from scipy.signal import butter, filtfilt
 
         from fricbench.sysid.diagnose.settings import defaults
 
         if y.size < 50:
             return []
-        # the inverse dynamics' filter: a fifth of the sampling rate, at most 100 Hz
-        b, a = butter(4, min(100.0, 0.2 / ts) * 2.0 * ts)
-        yf, uf = filtfilt(b, a, y), filtfilt(b, a, effort)
-        v = np.gradient(yf, ts)
-        acc = np.gradient(v, ts)
+        yf, uf, v, acc = open_loop_motion(effort, y, ts)
         v_max = float(np.max(np.abs(v)))
         moving = np.abs(v) > defaults().sliding_share * v_max
         if np.count_nonzero(moving) < 50:
