@@ -257,6 +257,15 @@ def test_jittered_logger_and_rotary_table_logs(cases: dict[str, S.Case]) -> None
     assert np.all(dt > 0.0)
     dev = np.abs(dt - period) / period
     assert 0.05 < np.max(dev) <= 0.2 + 1e-9
+    # the sub-step record is timed as the ticks are: at each tick it holds the position the
+    # loop measured there (a record one sub-step late put every reading 125 us off its stamp)
+    tr = case.trace
+    assert np.allclose(np.interp(tr.t[1:], tr.sub_t, tr.sub_log), tr.x_motor[1:],
+                       rtol=0.0, atol=1e-12)
+    # each reading is the position at its stamp, quantised by the sensor
+    k = S._UNIT_SCALE[case.unit]
+    at_stamp = np.interp(case.rows["t"], tr.sub_t, tr.sub_log) * k
+    assert np.max(np.abs(case.rows["pos"] - at_stamp)) <= 0.5 * case.machine.q_log * k * (1 + 1e-9)
     rot = cases["rotary_table"]
     assert rot.unit == "deg" and rot.truth()["position_unit_si"] == "rad"
     assert np.allclose(rot.rows["pos"], np.degrees(rot.trace.y_log[::rot.log_every]))

@@ -320,7 +320,8 @@ def simulate(mc: Machine, x_ref: np.ndarray | None = None, i_open: np.ndarray | 
     out = {k: np.zeros(n) for k in ("x_ref", "xm", "xl", "y_fb", "y_log", "y_load", "cmd",
                                     "cur")}
     clipped = np.zeros(n, dtype=bool)
-    sub_t = np.arange(n * SUBSTEPS) * h
+    # each record is the position after its sub-step: at the sub-step's end
+    sub_t = (np.arange(n * SUBSTEPS) + 1) * h
     sub_log = np.zeros(n * SUBSTEPS)
     ref_prev = x_ref[0] if x_ref is not None else 0.0
     vref_prev = 0.0
@@ -872,12 +873,14 @@ def _logged_rows(case_kind: str, mc: Machine, tr: Trace, log: dict[str, object],
         tj = tr.t[idx] + period * float(log["jitter"]) * rng.uniform(  # type: ignore[arg-type]
             -1.0, 1.0, idx.shape[0])
         tj[0] = 0.0
-        sub = np.clip(np.rint(tj / (mc.loop_ts / SUBSTEPS)).astype(int), 0,
-                      tr.sub_t.shape[0] - 1)
+        # read at its stamp: the sub-step record interpolated there (the nearest record
+        # would put a reading up to half a sub-step, 62 us, away from its stamp: at the run's
+        # speeds microns, many times the sensor's noise, that no model of the axis removes)
         tick = np.clip(np.floor(tj / mc.loop_ts).astype(int), 0, tr.t.shape[0] - 1)
         rows["t"] = tj
         rows["ref"] = tr.x_ref[tick] * k
-        rows["pos"] = np.array([_quant(v, mc.q_log) for v in tr.sub_log[sub]]) * k
+        rows["pos"] = np.array([_quant(v, mc.q_log)
+                                for v in np.interp(tj, tr.sub_t, tr.sub_log)]) * k
     eu = log["effort_unit"]
     if eu == "A":
         rows["effort"] = (tr.current if mc.drive == "velocity" else tr.command)[idx].copy()
