@@ -34,6 +34,7 @@ from collections.abc import Callable, Iterator
 from typing import Any, BinaryIO
 
 import numpy as np
+from scipy.interpolate import PchipInterpolator
 
 from fricbench.run import Run, validate_run_arrays
 from fricbench.run_events import hysteresis_sign, motion_events, sign_reversals
@@ -178,8 +179,8 @@ def _resample_jitter(t: object, x_ref: object, x: object, u: object | None,
                      source: str) -> tuple[Any, Any, Any, Any, Any, np.ndarray | None, str]:
     """Arrays on a uniform grid when the time steps jitter by more than
     :data:`TIME_JITTER_TOLERANCE` and at most :data:`RESAMPLE_MAX_JITTER` of their median:
-    linear interpolation at ``t0 + k ts``, ``ts`` the median step, and the warning that says
-    so (empty when nothing was resampled). Anything else goes on to the checks unchanged (a
+    interpolation at ``t0 + k ts`` (positions by a monotone cubic, the effort linearly), ``ts``
+    the median step, and the warning that says so (empty when nothing was resampled). Anything else goes on to the checks unchanged (a
     larger deviation is refused there, with its figure)."""
     tt = np.asarray(t, dtype=float)
     if tt.ndim != 1 or tt.size < 3 or not np.all(np.isfinite(tt)):
@@ -209,13 +210,22 @@ def _resample_jitter(t: object, x_ref: object, x: object, u: object | None,
         arr = np.asarray(a, dtype=float)
         if arr.shape != tt.shape:  # the checks name the length mismatch
             return arr
-        return np.interp(grid, times.get(key, tt) if key else tt, arr)
+        at = times.get(key, tt) if key else tt
+        if key is None or not np.all(np.isfinite(arr)) or not np.all(np.diff(at) > 0.0):
+            return np.interp(grid, at, arr)
+        # a position between jittered readings: linear interpolation is off by half the
+        # acceleration times the offset from one reading times that to the next (at 4 ms
+        # steps and 10 % jitter, 0.5 um on a third-simulator run whose noise floor is
+        # 0.035 um); a monotone cubic (Fritsch-Carlson, scipy's PCHIP) follows the curvature
+        # and, unlike a spline, invents no motion at a rest or past a stop
+        return PchipInterpolator(at, arr, extrapolate=True)(grid)
 
     n_jit = int(np.sum(np.abs(dt - ts) / ts > TIME_JITTER_TOLERANCE))
     why = (f"{source + ': ' if source else ''}column {t_name!r}: the time steps jitter by up to "
            f"{100 * dev:.3g} % of their median {ts:.6g} s ({n_jit} of {dt.size} steps beyond "
-           f"{100 * TIME_JITTER_TOLERANCE:g} %): the run was resampled to that step by linear "
-           f"interpolation ({tt.size} -> {grid.size} samples){ticks_note}")
+           f"{100 * TIME_JITTER_TOLERANCE:g} %): the run was resampled to that step (positions by "
+           f"monotone cubic interpolation, the effort linearly; {tt.size} -> {grid.size} "
+           f"samples){ticks_note}")
     return (grid, on_grid(x_ref, "x_ref"), on_grid(x, "x"), on_grid(u),
             on_grid(x_load, "x_load"), None, why)
 

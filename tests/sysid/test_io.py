@@ -106,8 +106,15 @@ def test_jittered_timestamps_are_resampled_with_a_warning():
     run = validate_arrays(t, motion(t), motion(t) - 1e-5, 5.0 * np.cos(2 * np.pi * 2.0 * t))
     assert run.ts == pytest.approx(ts, rel=0.02)
     assert np.allclose(np.diff(run.t), run.ts, rtol=1e-9, atol=0.0)
-    # on the new grid the values are the motion's at the grid's times (linear interpolation)
+    # on the new grid the values are the motion's at the grid's times, closer than a linear
+    # interpolation between the readings gets (off by the curvature)
     assert np.max(np.abs(run.x_ref - motion(run.t))) < 1e-3 * 0.01
+    err = np.sqrt(np.mean((run.x - (motion(run.t) - 1e-5)) ** 2))
+    linear = np.sqrt(np.mean((np.interp(run.t, t, motion(t)) - motion(run.t)) ** 2))
+    assert err < 0.1 * linear
+    # the effort, noisy in a real log, stays a linear interpolation of its readings
+    assert np.allclose(run.u, np.interp(run.t, t, 5.0 * np.cos(2 * np.pi * 2.0 * t)),
+                       rtol=0.0, atol=1e-12)
     warning = next(w for w in run.warnings if "resampled" in w)
     assert "jitter by up to" in warning and "%" in warning
 
@@ -131,10 +138,28 @@ def test_a_reference_latched_at_the_drives_ticks_is_read_at_them():
     err = np.sqrt(np.mean((run.x_ref - at_ticks) ** 2))
     stamped = np.interp(run.t, t, latched)
     assert err < 0.1 * np.sqrt(np.mean((stamped - at_ticks) ** 2))
-    # the position was read at its stamps and stays there
-    assert np.max(np.abs(run.x - (np.interp(run.t, t, plan(t)) - 1e-5))) < 1e-12
+    # the position was read at its stamps and stays there (interpolated between them)
+    err = run.x - (plan(run.t) - 1e-5)
+    linear = np.interp(run.t, t, plan(t)) - plan(run.t)
+    assert np.sqrt(np.mean(err**2)) < 0.2 * np.sqrt(np.mean(linear**2))
     warning = next(w for w in run.warnings if "resampled" in w)
     assert "loop ticks" in warning and "500 us" in warning and "position at its stamps" in warning
+
+
+def test_a_resampled_rest_stays_at_rest():
+    # stop-and-go moves read at jittered instants: between two readings of a rest the
+    # resampled position neither moves nor overshoots the stop (a cubic spline rings there)
+    n, ts = 3000, 2e-3
+    rng = np.random.default_rng(3)
+    t = np.arange(n) * ts + rng.uniform(-0.1 * ts, 0.1 * ts, n) * (np.arange(n) > 0)
+    phase = np.clip((t % 1.0) / 0.4, 0.0, 1.0)  # a 0.4 s move, then 0.6 s at rest
+    x = 0.01 * (np.floor(t / 1.0) + phase - np.sin(2 * np.pi * phase) / (2 * np.pi))
+    run = validate_arrays(t, x, x - 1e-5, None, effort_required=False)
+    lo, hi = np.min(x) - 1e-5, np.max(x) - 1e-5
+    assert lo <= np.min(run.x) and np.max(run.x) <= hi
+    for k in range(1, 5):
+        rest = (run.t > k - 0.55) & (run.t < k - 0.05)  # well inside the k-th rest
+        assert np.ptp(run.x[rest]) == 0.0
 
 
 def test_small_jitter_is_accepted():
