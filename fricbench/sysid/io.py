@@ -180,8 +180,9 @@ def _resample_jitter(t: object, x_ref: object, x: object, u: object | None,
     """Arrays on a uniform grid when the time steps jitter by more than
     :data:`TIME_JITTER_TOLERANCE` and at most :data:`RESAMPLE_MAX_JITTER` of their median:
     interpolation at ``t0 + k ts`` (positions by a monotone cubic, the effort linearly), ``ts``
-    the median step, and the warning that says so (empty when nothing was resampled). Anything else goes on to the checks unchanged (a
-    larger deviation is refused there, with its figure)."""
+    the median step, and the warning that says so (empty when nothing was resampled). Anything
+    else goes on to the checks unchanged (a larger deviation is refused there, with its
+    figure)."""
     tt = np.asarray(t, dtype=float)
     if tt.ndim != 1 or tt.size < 3 or not np.all(np.isfinite(tt)):
         return t, x_ref, x, u, x_load, line_numbers, ""
