@@ -202,8 +202,8 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     """The drive's command limit kept (or None), and else the best tentative one (or None).
 
     A tentative limit clips at least ``settings.limit_min_clipped`` of the samples and leaves
-    less than ``settings.limit_tentative`` of the squared error without it, but not
-    ``settings.limit_margin``; the kept one leaves less than that margin.
+    less than the squared error without it, but not ``settings.limit_margin`` of it; the kept
+    one leaves less than that margin.
 
     A drive that clips its current (a rapid move, a reversal against friction) lags the
     reference in a way no linear loop with friction reproduces: without the effort nothing
@@ -257,7 +257,9 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
                         max_iter, n_best)
     if second is not None and second.sse_ratio < cfg.limit_margin:
         return second, None
-    near = [d for d in (first, second) if d is not None and d.sse_ratio < cfg.limit_tentative]
+    # any limit that lowers the error at all is tried: the criterion then decides between the
+    # searches with and without it (this was a field, limit_tentative, whose value 1 meant that)
+    near = [d for d in (first, second) if d is not None and d.sse_ratio < 1.0]
     return None, (min(near, key=lambda d: d.sse_ratio) if near else None)
 
 

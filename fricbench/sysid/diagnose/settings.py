@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 41 today; the one-method issue's target is at most 15.**
+**Tuned values: 40 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -264,10 +264,6 @@ class DiagnoseSettings:
     limit_min_clipped : float
         Drive limit. Share of the samples the identified limit must clip (a limit that never
         acts is none). Tuned on the second simulator's tuning seeds (commit aa3670a).
-    limit_tentative : float
-        Drive limit. A limit whose loop leaves less than this share of the squared error
-        without it, but not ``limit_margin``, is tentative: the search runs with and without
-        it. Tuned on the second simulator's tuning seeds (commit 64b622d).
     limit_start_friction : tuple of float
         Drive limit. Coulomb forces of the drive limit's grid of starts, in units of the
         reference's largest acceleration. Tuned on the second simulator (commit 123fae0).
@@ -495,7 +491,6 @@ class DiagnoseSettings:
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
     limit_min_clipped: float = _setting(0.005, tuned=True, check=_NONNEG)
-    limit_tentative: float = _setting(1.0, tuned=True, check=_POSITIVE)
     limit_start_friction: tuple[float, ...] = _setting((0.5, 1.0), tuned=True, check=_POSITIVES)
     limit_start_level: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
     limit_lowest: float = _setting(0.5, tuned=True, check=_POSITIVE)
