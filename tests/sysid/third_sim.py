@@ -873,9 +873,9 @@ def _logged_rows(case_kind: str, mc: Machine, tr: Trace, log: dict[str, object],
         tj = tr.t[idx] + period * float(log["jitter"]) * rng.uniform(  # type: ignore[arg-type]
             -1.0, 1.0, idx.shape[0])
         tj[0] = 0.0
-        # read at its stamp: the sub-step record interpolated there (the nearest record
-        # would put a reading up to half a sub-step, 62 us, away from its stamp: at the run's
-        # speeds microns, many times the sensor's noise, that no model of the axis removes)
+        # read at its stamp: the sub-step record interpolated there (the nearest record, with
+        # the records labelled a sub-step early, put a reading 0-190 us away from its stamp:
+        # at the run's speeds microns, many times the sensor's noise, that no model removes)
         tick = np.clip(np.floor(tj / mc.loop_ts).astype(int), 0, tr.t.shape[0] - 1)
         rows["t"] = tj
         rows["ref"] = tr.x_ref[tick] * k
