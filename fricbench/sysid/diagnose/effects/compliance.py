@@ -199,7 +199,8 @@ class Compliance(Effect):
     shape_parameters = (CL.I_CF, CL.I_CZ)
     periodic = False
     # fitted for real when its linearised screen (a two-mass probe at the residual's spectral
-    # peaks) ranks it among the confirmed candidates, as any effect that is not friction: fitted
+    # peaks) ranks it among the confirmed candidates, as a backlash or a drift is (friction and
+    # the cogging stay always fitted: their screens miss how stick-slip moves the stops). Fitted
     # at every step whatever its screen, its fold fits took 38 % of a 40k-sample diagnosis where
     # it was rejected each time, and no held-out run of either simulator changed without them
     always_fitted = False
