@@ -28,14 +28,17 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from fricbench.sysid.io import RunData
 
-__all__ = ["BenchmarkResult", "REFERENCE_REPEATS", "TARGET_SECONDS", "TARGET_RATIO",
-           "benchmark_run", "time_diagnose", "main"]
+__all__ = ["BenchmarkResult", "REFERENCE_REPEATS", "TARGET_SAMPLES", "TARGET_SECONDS",
+           "TARGET_RATIO", "benchmark_run", "time_diagnose", "main"]
 
 REFERENCE_REPEATS = 5
 """Free runs timed for the reference (their median is kept)."""
 
+TARGET_SAMPLES = 40_000
+"""Run length the issue's wall time is stated for (the command's default)."""
+
 TARGET_SECONDS = 15.0
-"""The one-method issue's wall time for 40,000 samples on 2 cores, s."""
+"""The one-method issue's wall time for :data:`TARGET_SAMPLES` samples on 2 cores, s."""
 
 TARGET_RATIO = 14_198 / 3
 """The one-method issue's ratio of the diagnosis to one free run (a third of 14,198)."""
@@ -131,7 +134,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Command line: print samples, seconds and samples/s of one timed diagnosis."""
     ap = argparse.ArgumentParser(prog="python -m fricbench.bench.diagnose_timing",
                                  description=__doc__.splitlines()[0])
-    ap.add_argument("--samples", type=int, default=40_000, help="run length (default 40000)")
+    ap.add_argument("--samples", type=int, default=TARGET_SAMPLES,
+                    help=f"run length (default {TARGET_SAMPLES})")
     ap.add_argument("--effort", action="store_true", help="give diagnose the effort column")
     ap.add_argument("--seed", type=int, default=0, help="seed of the reference and noise")
     ap.add_argument("--no-warm-up", action="store_true",
@@ -153,9 +157,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"ratio: diagnose / reference = {r.ratio:.0f}")
     met = "met" if r.ratio <= TARGET_RATIO else "not met"
     line = f"target: ratio <= {TARGET_RATIO:.0f} ({met})"
-    if r.samples == 40_000:
+    if r.samples == TARGET_SAMPLES:
         met = "met" if r.seconds <= TARGET_SECONDS else "not met"
-        line += f"; {TARGET_SECONDS:g} s for 40000 samples on 2 cores ({met})"
+        line += f"; {TARGET_SECONDS:g} s for {TARGET_SAMPLES} samples on 2 cores ({met})"
     print(line)
     la = r.load_average
     print(f"load average: {la[0]:.2f} {la[1]:.2f} {la[2]:.2f} on {r.cpus} cpus")
