@@ -222,25 +222,28 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     not an effect.
 
     When no such limit is kept, a drive sized for its friction rather than for the motion is
-    searched: a grid of Coulomb forces (``settings.limit_start_friction_sized``, and ``fit``'s own)
-    with limits a little above each (``settings.limit_start_headroom``), the limit bounded below by
-    ``settings.limit_lowest_friction_sized`` of the acceleration. Such a drive clips on every fast
-    move (the second simulator's thermal/17: a limit of 1.3 times the Coulomb force, a third of
-    the reference's largest acceleration, 4 % of the samples clipped; no limit was found and
-    82 um were left, 80 times the floor). It is the second search, not part of the first: the
-    clipped moves show the headroom, the limit minus the friction, far better than either, and
-    from those low starts the first search's runs reach fits as close with a limit and a
-    friction both half the truth (the second simulator's control/5: after a right limit, the
-    second search fits a limit 42 % low at 0.40 times its squared error, so it does not run
-    once a limit is kept).
+    searched: a grid of Coulomb forces (``settings.limit_start_friction_sized``, and ``fit``'s
+    own) with limits a little above each (``settings.limit_start_headroom``), the limit bounded
+    below by ``settings.limit_lowest_friction_sized`` of the acceleration, on ``fit``'s loop and
+    the ``n_best`` loops whose starts ranked best in the first grid (not every standard loop
+    again). Such a drive clips on every fast move (the second simulator's thermal/17: a limit of
+    1.3 times the Coulomb force, a third of the reference's largest acceleration, 4 % of the
+    samples clipped; no limit was found and 82 um were left, 80 times the floor). It is the
+    second search, not part of the first: the clipped moves show the headroom, the limit minus
+    the friction, far better than either, and from those low starts the first search's runs
+    reach fits as close with a limit and a friction both half the truth (the second simulator's
+    control/5: after a right limit, the second search fits a limit 42 % low at 0.40 times its
+    squared error, so it does not run once a limit is kept).
     """
     a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None, None
     cfg = defaults()
     motion = [(f_fc, f_lim) for f_fc in cfg.limit_start_friction for f_lim in cfg.limit_start_level]
-    first = _fit_limit(fit, prep, bounds, a_ref, motion, cfg.limit_lowest, (1.0, 2.0),
-                       max_iter, n_best)
+    loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
+             + list(starting_pid_controllers(prep.inputs.loop_ts)))
+    first, _ = _fit_limit(fit, prep, bounds, a_ref, motion, cfg.limit_lowest, (1.0, 2.0),
+                               max_iter, n_best, loops)
     if first is not None and first.sse_ratio < cfg.limit_margin:
         return first, None
     # the friction the fit without a limit found is a start of the second search too: a
@@ -253,8 +256,17 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
               if "coulomb_friction" in fit.model.effects else 0.0)
     levels = sorted({*cfg.limit_start_friction_sized, *([fitted] if fitted > 0.0 else [])})
     friction = [(f_fc, h * f_fc) for f_fc in levels for h in cfg.limit_start_headroom]
-    second = _fit_limit(fit, prep, bounds, a_ref, friction, cfg.limit_lowest_friction_sized, (),
-                        max_iter, n_best)
+    # its grid of starts in two stages: every loop with the friction fitted without a limit
+    # (else the largest level) and the lowest headroom, then every pair on the loops that
+    # ranked best there (every loop with every pair, 588 free runs, was three quarters of
+    # this function's 6.3 s on diagnose_timing's 40,000-sample run)
+    probe = fitted if fitted > 0.0 else levels[-1]
+    _, ranked = _fit_limit(fit, prep, bounds, a_ref,
+                           [(probe, min(cfg.limit_start_headroom) * probe)],
+                           cfg.limit_lowest_friction_sized, (), max_iter, 0, loops)
+    second, _ = _fit_limit(fit, prep, bounds, a_ref, friction,
+                           cfg.limit_lowest_friction_sized, (), max_iter, n_best,
+                           list(dict.fromkeys([fit.model.controller, *ranked[:n_best]])))
     if second is not None and second.sse_ratio < cfg.limit_margin:
         return second, None
     # any limit that lowers the error at all is tried: the criterion then decides between the
@@ -265,12 +277,15 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
 
 def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: float,
                pairs: Sequence[tuple[float, float]], lowest: float | None,
-               fit_levels: Sequence[float], max_iter: int, n_best: int) -> DriveLimit | None:
+               fit_levels: Sequence[float], max_iter: int, n_best: int,
+               loops: Sequence[CascadeController | ArxController]
+               ) -> tuple[DriveLimit | None, list[CascadeController | ArxController]]:
     """One search of :func:`drive_limits`: starts from ``fit`` with the limits
-    ``fit_levels`` and from the best ``n_best`` of the grid of ``(Coulomb force, limit)``
-    ``pairs``, all in units of ``a_ref``, the limit bounded below by ``lowest`` of it (None:
-    the limit held at its start). The best fit's limit, whatever the error it leaves, when it
-    clips at least ``settings.limit_min_clipped`` of the samples; else None."""
+    ``fit_levels`` and from the best ``n_best`` of the grid of ``loops`` and ``(Coulomb
+    force, limit)`` ``pairs``, all in units of ``a_ref``, the limit bounded below by
+    ``lowest`` of it (None: the limit held at its start). The best fit's limit, whatever the
+    error it leaves, when it clips at least ``settings.limit_min_clipped`` of the samples,
+    else None; and the grid's loops, best first (each by its best pair)."""
     limit_params = ([] if lowest is None
                     else [Param(CL.I_IMAX, True, lowest * a_ref, 100.0 * a_ref, 1.0)])
     starts = []
@@ -278,8 +293,6 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         m = fit.model.copy()
         m.plant[CL.I_IMAX] = factor * a_ref
         starts.append(m)
-    loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
-             + list(starting_pid_controllers(prep.inputs.loop_ts)))
     grid = []
     for ctrl in loops:
         for f_fc, f_lim in pairs:
@@ -294,25 +307,29 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         ys, _, status = simulate_inputs(grid, prep.inputs, 1, effort=False)
         sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y))
                         else np.inf for y, s in zip(ys, status, strict=True)])
-        starts += [grid[i] for i in np.argsort(sse)[:n_best] if np.isfinite(sse[i])]
+        order = np.argsort(sse, kind="stable")
+        starts += [grid[i] for i in order[:n_best] if np.isfinite(sse[i])]
+        ranked = list(dict.fromkeys(grid[i].controller for i in order if np.isfinite(sse[i])))
+    else:
+        ranked = []
     if not starts:
-        return None
+        return None, ranked
     # independent fits: on two threads at once (the same numbers)
     fits = run_concurrently([
         partial(PositionFit(prep, position_params(m, bounds, controller=True)
                             + limit_params).run, m, max_iter=max_iter) for m in starts])
     best = min(fits, key=lambda r: r.cost)
     if not np.isfinite(best.cost):
-        return None
+        return None, ranked
     level = float(best.model.plant[CL.I_IMAX])
     _, u, status = simulate_models([best.model], prep)
     if status[0] != 0 or not np.all(np.isfinite(u[0])):
-        return None
+        return None, ranked
     clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
     ratio = float(best.cost / fit.cost)
     if clipped >= defaults().limit_min_clipped:
-        return DriveLimit(level, clipped, ratio, best.model)
-    return None
+        return DriveLimit(level, clipped, ratio, best.model), ranked
+    return None, ranked
 
 
 def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxController:
