@@ -225,15 +225,16 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     searched: a grid of Coulomb forces (``settings.limit_start_friction_sized``, and ``fit``'s
     own) with limits a little above each (``settings.limit_start_headroom``), the limit bounded
     below by ``settings.limit_lowest_friction_sized`` of the acceleration, on ``fit``'s loop and
-    the ``n_best`` loops whose starts ranked best in the first grid (not every standard loop
-    again). Such a drive clips on every fast move (the second simulator's thermal/17: a limit of
-    1.3 times the Coulomb force, a third of the reference's largest acceleration, 4 % of the
-    samples clipped; no limit was found and 82 um were left, 80 times the floor). It is the
-    second search, not part of the first: the clipped moves show the headroom, the limit minus
-    the friction, far better than either, and from those low starts the first search's runs
-    reach fits as close with a limit and a friction both half the truth (the second simulator's
-    control/5: after a right limit, the second search fits a limit 42 % low at 0.40 times its
-    squared error, so it does not run once a limit is kept).
+    the ``n_best`` standard loops that rank best with one pair, the friction ``fit`` found (else
+    the largest level) at the lowest headroom (the grid ranks starts in two stages, not every
+    loop with every pair). Such a drive clips on every fast move (the second simulator's
+    thermal/17: a limit of 1.3 times the Coulomb force, a third of the reference's largest
+    acceleration, 4 % of the samples clipped; no limit was found and 82 um were left, 80 times
+    the floor). It is the second search, not part of the first: the clipped moves show the
+    headroom, the limit minus the friction, far better than either, and from those low starts
+    the first search's runs reach fits as close with a limit and a friction both half the truth
+    (the second simulator's control/5: after a right limit, the second search fits a limit 42 %
+    low at 0.40 times its squared error, so it does not run once a limit is kept).
     """
     a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
@@ -243,7 +244,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
              + list(starting_pid_controllers(prep.inputs.loop_ts)))
     first, _ = _fit_limit(fit, prep, bounds, a_ref, motion, cfg.limit_lowest, (1.0, 2.0),
-                               max_iter, n_best, loops)
+                          max_iter, n_best, loops)
     if first is not None and first.sse_ratio < cfg.limit_margin:
         return first, None
     # the friction the fit without a limit found is a start of the second search too: a
