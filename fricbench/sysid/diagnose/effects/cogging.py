@@ -31,9 +31,7 @@ class Cogging(Effect):
     force_parameters = (CL.I_COGA, CL.I_COGB)
     idim_nonlinear = CL.I_COGP
     period_parameter = CL.I_COGP
-    # two distinct periods of the screen per fold fit (three until 2026-12-05: the third
-    # changed no held-out verdict of either simulator and cost a tenth of a 16 s diagnosis)
-    n_starts = 2
+    n_starts = 3
     always_fitted = True
 
     def bounds(self, i: int, value: float, b: Bounds) -> Param:
