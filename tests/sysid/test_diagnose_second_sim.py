@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 import fricbench.sysid.diagnose.diagnosis as D
+import fricbench.sysid.diagnose.search as SR
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -458,10 +459,28 @@ def test_a_semi_closed_pid_logged_slower_runs_its_loop_at_the_drives_rate(tmp_pa
     assert any("periods per logged sample" in n for n in report["notes"]), report["notes"]
     assert "backlash" in report["effects"]
     # the position alone fits a ripple of 0.72 strokes (0.8 % of the Coulomb level, held-out
-    # position x0.49) beside the backlash; the logged current contradicts it
+    # position x0.49) beside the backlash; it is rejected (by the blocks' consistency, or by
+    # the logged current, which contradicts it)
+    assert "cogging" not in report["effects"]
     notes = [c.get("note", "") for c in report["rejected_at_last_step"]
              if c["effect"] == "cogging"]
-    assert notes and "makes the held-out effort error worse" in notes[0], notes
+    assert notes and "rejected" in notes[0], notes
+
+
+def test_the_logged_effort_vetoes_a_force_the_position_alone_would_take(
+        tmp_path: object, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same run with the blocks' consistency switched off: the false ripple the position
+    fits beside the backlash (held-out position x0.81) is still rejected, by the logged current
+    it contradicts (x4.2): the effort check of a force effect judged on the free-run position,
+    which no other test reaches."""
+    monkeypatch.setattr(SR, "_check_consistency", lambda *args, **kwargs: None)
+    outcome = C.diagnose_case(S.draw_case("backlash", 5), str(tmp_path))
+    assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
+    report = outcome.report
+    assert report is not None and "cogging" not in report["effects"]
+    notes = [c.get("note", "") for step in report["steps"]
+             for c in step.get("candidates", []) if c["effect"] == "cogging"]
+    assert any("makes the held-out effort error worse" in n for n in notes), notes
 
 
 def test_a_cogging_of_less_than_two_periods_is_told_from_a_friction_level(tmp_path: object
