@@ -176,3 +176,34 @@ def test_a_candidate_its_screen_gives_too_small_a_cut_is_listed_unfitted() -> No
         assert c.judged_on == "position (linearised)"
         need = DEFAULT_SETTINGS.min_gain + DEFAULT_SETTINGS.gain_per_param * c.n_params
         assert c.heldout_ratio >= math.exp(-need)
+
+
+def test_an_effort_round_a_force_effect_wins_fits_no_output_effect(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the effort, force effects are taken first; the output effects (three fits each on
+    the free-run position) are scored only in a round no force effect wins: here the last,
+    once per output effect, and the rounds that added a force effect list the force effects
+    only."""
+    import fricbench.sysid.diagnose.search as SR
+    from fricbench.bench.diagnose_timing import benchmark_run
+    from fricbench.sysid.diagnose import diagnose
+    from fricbench.sysid.diagnose.effects import get_effect
+
+    scored: list[tuple[int, str]] = []
+    original = SR._output_candidate
+
+    def spy(model, name, *args, **kwargs):  # type: ignore[no-untyped-def]
+        scored.append((len(model.effects), name))
+        return original(model, name, *args, **kwargs)
+
+    monkeypatch.setattr(SR, "_output_candidate", spy)
+    report = diagnose(benchmark_run(4000, effort=True, seed=0)).to_dict()
+    assert report["data"]["mode"] == "effort"
+    steps = report["steps"]
+    assert steps and all(get_effect(st["effect"]).kind == "force" for st in steps)
+    for st in steps:
+        assert all(get_effect(c["effect"]).kind == "force" for c in st["candidates"])
+    last = {c["effect"] for c in report["rejected_at_last_step"]
+            if get_effect(c["effect"]).kind == "output"}
+    assert last and sorted(name for _, name in scored) == sorted(last)
+    assert {n for n, _ in scored} == {len(steps)}

@@ -530,6 +530,45 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
         log(f"    {winner.effect} rejected: {winner.note}")
 
 
+def _effort_step_score(m: GreyBox, name: str, y: np.ndarray, prep: Prepared,
+                       idim: InverseDynamics, b: Bounds, w: np.ndarray | None,
+                       settings: DiagnoseSettings, floor: float, u_rms: float,
+                       base: tuple[float, np.ndarray], log: Callable[[str], None]
+                       ) -> tuple[CandidateScore, GreyBox] | None:
+    """One candidate of a step of :func:`_search_with_effort` added to ``m`` (whose free-run
+    position is ``y``; ``base`` its held-out effort errors, total and per block): its score
+    and the model it proposes, or None when it has no start. A force effect is judged on the
+    held-out effort, an output effect on the held-out free-run position (three fits)."""
+    effects = m.effects + (name,)
+    n_par = _n_params(name, effects)
+    if get_effect(name).kind == "force":
+        p0 = _init_effect(m, name, prep, b).plant
+        try:
+            cv, cv_blocks, _ = idim.cv_blocks(effects, p0, new=name)
+            p_all = idim.fit(effects, p0, new=name)
+        except NoStartError as exc:
+            log(f"    {name:28s} not fitted: {exc}")
+            return None
+        ratio, _, block_note = _judged_ratio(cv, base[0], cv_blocks, base[1])
+        force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
+        share = _rms(force) / max(u_rms, 1e-300)
+        sc = CandidateScore(name, n_par, ratio, "effort", share,
+                            share >= settings.min_force_share, block_note)
+        proposal = m.copy(plant=p_all, effects=effects)
+    else:
+        ratio, _, cand_blocks, base_pos_blocks = _output_candidate(m, name, prep, b, w, y)
+        fitted = _output_fit(_start_output(m, name, prep, b, w, y), prep, b, w, None)
+        proposal = fitted.model
+        size = _effect_position_size(proposal, name, prep, w, fitted.y)
+        sc = CandidateScore(name, n_par, ratio, "position", size / floor,
+                            size >= min_position_size(settings, name) * floor)
+        _check_consistency(sc, cand_blocks, base_pos_blocks, None, settings)
+    log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} ({n_par} par)"
+        f"{'' if sc.size_ok or 'rejected' in sc.note else ' too small'}"
+        f"{f' ({sc.note})' if sc.note else ''}")
+    return sc, proposal
+
+
 def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b: Bounds,
                         settings: DiagnoseSettings, w: np.ndarray | None,
                         log: Callable[[str], None], warnings: list[str]
@@ -554,56 +593,44 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                                                   log, warnings)
         else:
             base_cv, base_blocks, _ = idim.cv_blocks(m.effects, m.plant)
-            scores = []
+            base = (base_cv, base_blocks)
+            names = list(_available(m, prep, settings))
+            scored: dict[str, CandidateScore] = {}
             proposals: dict[str, GreyBox] = {}
-            for name in _available(m, prep, settings):
-                effects = m.effects + (name,)
-                n_par = _n_params(name, effects)
-                if get_effect(name).kind == "force":
-                    p0 = _init_effect(m, name, prep, b).plant
-                    try:
-                        cv, cv_blocks, _ = idim.cv_blocks(effects, p0, new=name)
-                        p_all = idim.fit(effects, p0, new=name)
-                    except NoStartError as exc:
-                        log(f"    {name:28s} not fitted: {exc}")
-                        continue
-                    ratio, _, block_note = _judged_ratio(cv, base_cv, cv_blocks, base_blocks)
-                    force = idim.predict(p_all) - idim.predict(_zero_effect(p_all, name, effects))
-                    share = _rms(force) / max(u_rms, 1e-300)
-                    sc = CandidateScore(name, n_par, ratio, "effort", share,
-                                        share >= settings.min_force_share, block_note)
-                    proposals[name] = m.copy(plant=p_all, effects=effects)
-                else:
-                    ratio, _, cand_blocks, base_pos_blocks = _output_candidate(
-                        m, name, prep, b, w, cur.y)
-                    fitted = _output_fit(_start_output(m, name, prep, b, w, cur.y), prep, b, w,
-                                         None)
-                    m_new = fitted.model
-                    size = _effect_position_size(m_new, name, prep, w, fitted.y)
-                    sc = CandidateScore(name, n_par, ratio, "position", size / floor,
-                                        size >= min_position_size(settings, name) * floor)
-                    _check_consistency(sc, cand_blocks, base_pos_blocks, None, settings)
-                    proposals[name] = m_new
-                scores.append(sc)
-                log(f"    {name:28s} held-out {sc.judged_on} error x{sc.heldout_ratio:.3f} "
-                    f"({n_par} par)"
-                    f"{'' if sc.size_ok or 'rejected' in sc.note else ' too small'}"
-                    f"{f' ({sc.note})' if sc.note else ''}")
+
             # force effects first: an output effect cannot change the effort, and while a force
             # effect is missing the position residual it leaves can look like an output effect.
             # A winner must not be an artefact; else the next candidate is tried. The free-run
             # position is checked on the final model (:func:`_position_prune`): one effect alone
             # may worsen it while the pair it belongs to improves it (Coulomb friction without
-            # the cogging that dominates the effort).
+            # the cogging that dominates the effort). The output effects (three fits each, on
+            # the free-run position) are scored only when no force effect is taken: a step a
+            # force effect wins never looks at them, and its report lists the force effects.
+            outputs = [n for n in names if get_effect(n).kind != "force"]
+            args = (cur.y, prep, idim, b, w, settings, floor, u_rms, base, log)
+            for name in names:
+                out = None if name in outputs else _effort_step_score(m, name, *args)
+                if out is not None:
+                    scored[name], proposals[name] = out
             accepted = None
-            pool = list(scores)
+            tried: set[str] = set()
+            outputs_scored = not outputs
             while accepted is None:
+                pool = [scored[n] for n in names if n in scored and n not in tried]
                 winner = _pick([s for s in pool if s.judged_on == "effort"], settings)
+                if winner is None and not outputs_scored:
+                    outputs_scored = True
+                    log("    no force effect taken: the output effects are scored")
+                    for name in outputs:
+                        out = _effort_step_score(m, name, *args)
+                        if out is not None:
+                            scored[name], proposals[name] = out
+                    continue
                 if winner is None:
                     winner = _pick(pool, settings)
                 if winner is None:
                     break
-                pool = [s for s in pool if s is not winner]
+                tried.add(winner.effect)
                 new = proposals[winner.effect]
                 if get_effect(winner.effect).kind == "force" and any(
                         get_effect(e).kind == "output" for e in new.effects):
@@ -621,6 +648,7 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                     log(f"    rejected {why}")
                     continue
                 accepted = (winner, new, y_new)
+            scores = [scored[n] for n in names if n in scored]
             if accepted is None and cur.position_rms > settings.floor_factor * floor:
                 # the effort shows no more force, the position still does: judge the force
                 # effects on it from here on
