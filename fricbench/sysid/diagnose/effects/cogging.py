@@ -32,7 +32,7 @@ class Cogging(Effect):
     idim_nonlinear = CL.I_COGP
     period_parameter = CL.I_COGP
     # two distinct periods of the screen per fold fit (three until 2026-12-05: the third
-    # changed no held-out verdict of either simulator and cost a ninth of a 16 s diagnosis)
+    # changed no held-out verdict of either simulator and cost a tenth of a 16 s diagnosis)
     n_starts = 2
     always_fitted = True
 
