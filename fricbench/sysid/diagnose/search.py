@@ -603,26 +603,23 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
             # A winner must not be an artefact; else the next candidate is tried. The free-run
             # position is checked on the final model (:func:`_position_prune`): one effect alone
             # may worsen it while the pair it belongs to improves it (Coulomb friction without
-            # the cogging that dominates the effort). The output effects (three fits each, on
-            # the free-run position) are scored only when no force effect is taken: a step a
-            # force effect wins never looks at them, and its report lists the force effects.
-            outputs = [n for n in names if get_effect(n).kind != "force"]
-            args = (cur.y, prep, idim, b, w, settings, floor, u_rms, base, log)
-            for name in names:
-                out = None if name in outputs else _effort_step_score(m, name, *args)
-                if out is not None:
-                    scored[name], proposals[name] = out
+            # the cogging that dominates the effort). The candidates are scored in two batches:
+            # the force effects, then, only when none of them is taken, the output effects
+            # (three fits each on the free-run position): a step a force effect wins never
+            # looks at them, and its report lists the force effects.
+            batches = [[n for n in names if get_effect(n).kind == "force"],
+                       [n for n in names if get_effect(n).kind != "force"]]
             accepted = None
             tried: set[str] = set()
-            outputs_scored = not outputs
             while accepted is None:
                 pool = [scored[n] for n in names if n in scored and n not in tried]
                 winner = _pick([s for s in pool if s.judged_on == "effort"], settings)
-                if winner is None and not outputs_scored:
-                    outputs_scored = True
-                    log("    no force effect taken: the output effects are scored")
-                    for name in outputs:
-                        out = _effort_step_score(m, name, *args)
+                if winner is None and batches:
+                    if len(batches) == 1 and batches[0]:
+                        log("    no force effect taken: the output effects are scored")
+                    for name in batches.pop(0):
+                        out = _effort_step_score(m, name, cur.y, prep, idim, b, w, settings,
+                                                 floor, u_rms, base, log)
                         if out is not None:
                             scored[name], proposals[name] = out
                     continue
