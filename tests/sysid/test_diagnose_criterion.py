@@ -14,6 +14,7 @@ import pytest
 
 from fricbench.sysid.diagnose.criterion import (
     block_consistency,
+    comparison_samples,
     criterion,
     criterion_change,
     described_sd,
@@ -45,6 +46,24 @@ def test_correlated_noise_is_worth_n_over_tau(phi: float) -> None:
 def test_a_drift_is_worth_few_samples() -> None:
     r = np.linspace(0.0, 1.0, 5000) + 1e-3 * np.random.default_rng(2).standard_normal(5000)
     assert effective_samples(r, 0.1) < 10
+
+
+def test_two_structures_are_compared_on_the_richer_ones_samples() -> None:
+    # the simpler model misses a drift (its residual worth a handful of samples); the richer
+    # one leaves white noise: the comparison counts the richer one's samples, whichever of the
+    # two is passed first, and the simpler one's when both have as many parameters
+    rng = np.random.default_rng(3)
+    noise = rng.standard_normal(5_000)
+    drift = noise + 50.0 * np.linspace(0.0, 1.0, noise.size) ** 2
+    rich = effective_samples(noise, 0.1)
+    assert effective_samples(drift, 0.1) < 0.05 * rich
+    assert comparison_samples(drift, noise, 2, 8, 0.1) == rich
+    assert comparison_samples(noise, drift, 8, 2, 0.1) == rich
+    assert comparison_samples(drift, noise, 4, 4, 0.1) == effective_samples(drift, 0.1)
+    # a richer structure whose run diverged leaves no residual to count on
+    diverged = noise.copy()
+    diverged[10] = np.inf
+    assert comparison_samples(drift, diverged, 2, 8, 0.1) == effective_samples(drift, 0.1)
 
 
 def test_the_criterion_trades_error_against_parameters() -> None:

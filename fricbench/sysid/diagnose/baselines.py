@@ -17,7 +17,7 @@ from fricbench.sysid.diagnose.controllers import (
     CascadeController,
     fit_arx_controller,
 )
-from fricbench.sysid.diagnose.criterion import criterion_change, effective_samples
+from fricbench.sysid.diagnose.criterion import comparison_samples, criterion_change
 from fricbench.sysid.diagnose.effects import get_effect
 from fricbench.sysid.diagnose.equation_error import delay_steps, loop_by_equation_error
 from fricbench.sysid.diagnose.models import (
@@ -640,16 +640,17 @@ def _pid_wins(pid: PositionFitResult, cascade: PositionFitResult, prep: Prepared
     ``J = n_eff ln(SSE / n) + penalty k`` on the free-run position error of the training run
     (the Akaike form of the loop structures, ``docs/diagnosis_method.md``), ``k`` the
     parameters each fit moved (the PID's derivative filter is one more), ``n_eff`` that of the
-    cascade's residual. Both fits minimise the same scaled residual, so their costs' ratio is
-    that of their squared errors.
+    residual of the fit with more parameters
+    (:func:`~fricbench.sysid.diagnose.criterion.comparison_samples`). Both fits minimise the
+    same scaled residual, so their costs' ratio is that of their squared errors.
     """
     s = defaults()
     r = prep.x - cascade.y
     if not np.all(np.isfinite(r)):
         return True
-    n_eff = effective_samples(r, s.max_lag_share)
     k_pid = len(position_params(pid.model, bounds, controller=True))
     k_cascade = len(position_params(cascade.model, bounds, controller=True))
+    n_eff = comparison_samples(r, prep.x - pid.y, k_cascade, k_pid, s.max_lag_share)
     return criterion_change(pid.cost, cascade.cost, k_pid, k_cascade, n_eff, s.penalty) < 0.0
 
 

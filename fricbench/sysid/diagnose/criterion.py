@@ -43,7 +43,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["effective_samples", "criterion", "criterion_change", "false_detection_rate",
+__all__ = ["effective_samples", "comparison_samples", "criterion", "criterion_change",
+           "false_detection_rate",
            "block_consistency",
            "parameter_covariance", "described_sd", "kept_columns", "held_covariance",
            "conditional_sd", "size_over_sd", "least_detected", "UNIDENTIFIED"]
@@ -77,6 +78,32 @@ def effective_samples(residual: np.ndarray, max_lag_share: float) -> float:
     kept = lags[:stop[0]] if stop.size else lags
     tau = 1.0 + 2.0 * float(np.sum(kept))
     return float(min(max(n / tau, 1.0), n))
+
+
+def comparison_samples(residual: np.ndarray, residual_other: np.ndarray, k: int, k_other: int,
+                       max_lag_share: float) -> float:
+    """The ``n_eff`` two structures fitted to the same run are compared with.
+
+    That of the residual of the structure with more parameters: ``residual_other`` when
+    ``k_other > k`` (and it is finite), else ``residual``. As the F-test takes the noise from
+    the unrestricted model's residual: what the simpler structure misses is the question the
+    comparison asks, and its correlation counted as the noise's would discount the very
+    evidence against it (a drift the simpler model lacks makes its residual worth a handful
+    of independent samples, whatever the richer one leaves).
+
+    Parameters
+    ----------
+    residual, residual_other : ndarray
+        Residuals of the two structures.
+    k, k_other : int
+        Their parameter counts.
+    max_lag_share : float
+        As in :func:`effective_samples`.
+    """
+    other = np.asarray(residual_other, dtype=float)
+    if k_other > k and other.size and np.all(np.isfinite(other)):
+        return effective_samples(other, max_lag_share)
+    return effective_samples(residual, max_lag_share)
 
 
 def criterion(sse: float, n: int, n_eff: float, k: int, penalty: float) -> float:

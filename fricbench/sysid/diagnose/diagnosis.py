@@ -28,7 +28,7 @@ from fricbench.sysid.diagnose.baselines import (
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
 from fricbench.sysid.diagnose.coverage import Coverage, coverage
-from fricbench.sysid.diagnose.criterion import criterion_change, effective_samples
+from fricbench.sysid.diagnose.criterion import comparison_samples, criterion_change
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.models import (
     GreyBox,
@@ -703,7 +703,8 @@ def _loop_choice(new: _ModeFit, old: _ModeFit, extra_params: int, what: str,
     diagnosis' free-run error of the whole training run, Akaike's own estimate of the held-out
     error: ``k`` counts the final model's free parameters (loop gains, damping, effects; plus
     ``extra_params`` for what the new structure fixed from the data beforehand, a drive
-    limit's level), ``n_eff`` is that of the old structure's residual. Not blocked folds, as
+    limit's level), ``n_eff`` is that of the residual of the structure with more parameters
+    (:func:`~fricbench.sysid.diagnose.criterion.comparison_samples`). Not blocked folds, as
     the effect search uses: a whole loop refitted on half the run extrapolates its gains
     to the other half by far more than either structure misses it by (measured on a
     second-simulator tuning run, a PID at 1 kHz logged at 100 Hz: 16 um in-sample, 290 um on
@@ -715,7 +716,8 @@ def _loop_choice(new: _ModeFit, old: _ModeFit, extra_params: int, what: str,
         out.update(accepted=False, why="its free run of the training run diverges")
         log(f"  {what}: diverges, rejected")
         return out
-    out.update(_judged(new, new.sse, old, old.sse, old.prep.x - old.train.y_after,
+    out.update(_judged(new, new.sse, new.prep.x - new.train.y_after, old, old.sse,
+                       old.prep.x - old.train.y_after,
                        extra_params, settings))
     n = int(old.prep.n)
     log(f"  {what}: position rms {math.sqrt(new.sse / n):.4g} against "
@@ -733,21 +735,23 @@ def _n_params(fit: _ModeFit) -> int:
     return len(position_params(fit.search.final.model, fit.bounds, controller=True))
 
 
-def _judged(new: _ModeFit, sse_new: float, old: _ModeFit, sse_old: float,
-            residual_old: np.ndarray, extra_params: int, settings: DiagnoseSettings
+def _judged(new: _ModeFit, sse_new: float, residual_new: np.ndarray, old: _ModeFit,
+            sse_old: float, residual_old: np.ndarray, extra_params: int,
+            settings: DiagnoseSettings
             ) -> dict[str, object]:
     """The criterion's decision between two diagnoses of one run, JSON-ready.
 
     ``J = n_eff ln(SSE / n) + penalty k`` on their free-run position errors ``sse_new`` and
     ``sse_old`` of the whole run, ``k`` from :func:`_n_params` (``extra_params`` more for the
-    new one), ``n_eff`` that of ``residual_old``. Keys: ``accepted``, ``why``, ``n_params``,
-    ``n_params_other``, ``n_eff``, and the finite ones of ``position_rms_m``,
-    ``position_rms_other_m`` and ``criterion_change``.
+    new one), ``n_eff`` that of the residual (``residual_new``, ``residual_old``) of the one with
+    more parameters (:func:`~fricbench.sysid.diagnose.criterion.comparison_samples`). Keys:
+    ``accepted``, ``why``, ``n_params``, ``n_params_other``, ``n_eff``, and the finite ones of
+    ``position_rms_m``, ``position_rms_other_m`` and ``criterion_change``.
     """
     k_new = _n_params(new) + extra_params
     k_old = _n_params(old)
     n = int(old.prep.n)
-    n_eff = effective_samples(residual_old, settings.max_lag_share)
+    n_eff = comparison_samples(residual_old, residual_new, k_old, k_new, settings.max_lag_share)
     change = criterion_change(sse_new, sse_old, k_new, k_old, n_eff, settings.penalty)
     accepted = bool(change < 0.0)
     out: dict[str, object] = {
@@ -887,7 +891,7 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
     comparison["position"] = {"effects": _effects(pos), "position_rms_m": rms_p}
     # a free run of the effort's law that diverged leaves no residual to count samples on:
     # the position's own stands in (its criterion change is then -inf whatever n_eff)
-    judged = _judged(pos, pos.sse, effort, sse_e,
+    judged = _judged(pos, pos.sse, pos.prep.x - pos.train.y_after, effort, sse_e,
                      r_e if math.isfinite(sse_e) else pos.prep.x - pos.train.y_after, 0,
                      settings)
     comparison["criterion"] = {k: v for k, v in judged.items()
