@@ -716,8 +716,7 @@ def _loop_choice(new: _ModeFit, old: _ModeFit, extra_params: int, what: str,
         out.update(accepted=False, why="its free run of the training run diverges")
         log(f"  {what}: diverges, rejected")
         return out
-    out.update(_judged(new, new.sse, new.prep.x - new.train.y_after, old, old.sse,
-                       old.prep.x - old.train.y_after,
+    out.update(_judged(new, new.sse, old, old.sse, old.prep.x - old.train.y_after,
                        extra_params, settings))
     n = int(old.prep.n)
     log(f"  {what}: position rms {math.sqrt(new.sse / n):.4g} against "
@@ -735,23 +734,24 @@ def _n_params(fit: _ModeFit) -> int:
     return len(position_params(fit.search.final.model, fit.bounds, controller=True))
 
 
-def _judged(new: _ModeFit, sse_new: float, residual_new: np.ndarray, old: _ModeFit,
-            sse_old: float, residual_old: np.ndarray, extra_params: int,
-            settings: DiagnoseSettings
+def _judged(new: _ModeFit, sse_new: float, old: _ModeFit, sse_old: float,
+            residual_old: np.ndarray, extra_params: int, settings: DiagnoseSettings
             ) -> dict[str, object]:
     """The criterion's decision between two diagnoses of one run, JSON-ready.
 
     ``J = n_eff ln(SSE / n) + penalty k`` on their free-run position errors ``sse_new`` and
     ``sse_old`` of the whole run, ``k`` from :func:`_n_params` (``extra_params`` more for the
-    new one), ``n_eff`` that of the residual (``residual_new``, ``residual_old``) of the one with
-    more parameters (:func:`~fricbench.sysid.diagnose.criterion.comparison_samples`). Keys:
-    ``accepted``, ``why``, ``n_params``, ``n_params_other``, ``n_eff``, and the finite ones of
+    new one), ``n_eff`` that of the residual (``new``'s free run of the training run, or
+    ``residual_old``) of the one with more parameters
+    (:func:`~fricbench.sysid.diagnose.criterion.comparison_samples`). Keys: ``accepted``,
+    ``why``, ``n_params``, ``n_params_other``, ``n_eff``, and the finite ones of
     ``position_rms_m``, ``position_rms_other_m`` and ``criterion_change``.
     """
     k_new = _n_params(new) + extra_params
     k_old = _n_params(old)
     n = int(old.prep.n)
-    n_eff = comparison_samples(residual_old, residual_new, k_old, k_new, settings.max_lag_share)
+    n_eff = comparison_samples(residual_old, new.prep.x - new.train.y_after, k_old, k_new,
+                               settings.max_lag_share)
     change = criterion_change(sse_new, sse_old, k_new, k_old, n_eff, settings.penalty)
     accepted = bool(change < 0.0)
     out: dict[str, object] = {
@@ -891,7 +891,7 @@ def _better_of(effort: _ModeFit, run: RunData, prep_pos: Prepared, ctrl_err: flo
     comparison["position"] = {"effects": _effects(pos), "position_rms_m": rms_p}
     # a free run of the effort's law that diverged leaves no residual to count samples on:
     # the position's own stands in (its criterion change is then -inf whatever n_eff)
-    judged = _judged(pos, pos.sse, pos.prep.x - pos.train.y_after, effort, sse_e,
+    judged = _judged(pos, pos.sse, effort, sse_e,
                      r_e if math.isfinite(sse_e) else pos.prep.x - pos.train.y_after, 0,
                      settings)
     comparison["criterion"] = {k: v for k, v in judged.items()
