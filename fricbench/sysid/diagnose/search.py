@@ -16,7 +16,7 @@ size, refits every parameter with it (grey box) and repeats.
   runners-up of the previous step - are then fitted for real (nonlinear output error) on
   each fold. The loop gains are hardly identifiable from the position alone (with
   feedforward the reference is tracked whatever they are), so while a candidate is judged
-  they may only move by a factor ``settings.eval_box`` and the integral action may not vanish: an
+  they may only move by a factor ``settings.loop_box`` and the integral action may not vanish: an
   effect must explain the residual through the loop as it is, not by changing the loop (the
   known ways to mistake friction for backlash or a slow loop for thermal drift). Before the
   first effect, the fits also start from the loop identified together with a Coulomb force
@@ -883,12 +883,12 @@ def _linear_cv(r0: np.ndarray, rows: np.ndarray, folds: np.ndarray) -> float:
 def _eval_params(model: GreyBox, b: Bounds) -> list:
     """Free parameters while judging a candidate: plant, effects and a boxed loop.
 
-    The loop gains may only move within a factor ``settings.eval_box`` of their current values: this
+    The loop gains may only move within a factor ``settings.loop_box`` of their current values: this
     keeps one effect from imitating another through a changed loop (with its integral action
     fitted away, Coulomb friction leaves a direction-dependent offset that looks like
     backlash; a slow position loop imitates a thermal drift).
     """
-    return position_params(model, b, controller=True, controller_box=defaults().eval_box)
+    return position_params(model, b, controller=True, controller_box=defaults().loop_box)
 
 
 def _output_start(model: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray,
@@ -1456,9 +1456,9 @@ def _refit(start: GreyBox, prep: Prepared, b: Bounds, max_iter: int) -> Position
     best: PositionFitResult | None = None
     # whatever the start, the integral action may not collapse (see _eval_params)
     c0 = start.controller
-    ki_min = (c0.ki / c0.wv) / defaults().refit_box if isinstance(c0, CascadeController) else 0.0
+    ki_min = (c0.ki / c0.wv) / defaults().loop_box if isinstance(c0, CascadeController) else 0.0
     params = [position_params(m, b, controller=True,
-                              controller_box=defaults().refit_box if k == 0 else None,
+                              controller_box=defaults().loop_box if k == 0 else None,
                               ki_min_ratio=ki_min) for k, m in enumerate(candidates)]
     # independent fits: on two threads at once (the same numbers)
     for res in run_concurrently([partial(PositionFit(prep, p).run, m, max_iter=max_iter)
