@@ -228,8 +228,8 @@ def test_diagnose_names_a_drift_heated_by_motion(tmp_path: object, effort: str |
 
 @pytest.mark.xfail(strict=True, reason=(
     "a known miss since one loop box (settings.loop_box, 2 for the refit of an accepted "
-    "model as for judging a candidate; the held-out sets gained 2 runs): the backlash is "
-    "missed, Coulomb friction alone named (69.3 -> 4.68 um, floor 0.245 um)"))
+    "model as for judging a candidate; the second simulator's held-out set gained 2 runs): "
+    "the backlash is missed, Coulomb friction alone named (69.3 -> 4.68 um, floor 0.245 um)"))
 def test_a_single_rapid_move_does_not_hide_a_backlash(tmp_path: object) -> None:
     """The sweep's backlash/14: a saturating cascade on the motor side, no effort logged, one
     rapid move at the start whose deceleration clips the drive. The backlash's fold fit that
@@ -683,8 +683,9 @@ def test_a_cogging_is_not_named_twice_as_a_friction_along_the_stroke(tmp_path: o
 
 @pytest.mark.xfail(strict=True, reason=(
     "a known miss since one loop box (settings.loop_box, 2 for the refit of an accepted "
-    "model as for judging a candidate; the held-out sets gained 2 runs): the drift is kept "
-    "and a cogging named where absent beside it (86.5 -> 1.04 um, floor 1.53 um)"))
+    "model as for judging a candidate; the second simulator's held-out set gained 2 runs): "
+    "the drift is kept and a cogging named where absent beside it "
+    "(86.5 -> 1.04 um, floor 1.53 um)"))
 def test_an_effect_judged_redundant_is_kept_when_the_search_without_it_ends_worse(
         tmp_path: object) -> None:
     """The sweep's thermal/26: a clipping cascade on the position alone, with a drift heated
@@ -816,8 +817,9 @@ def test_a_stribeck_friction_small_against_the_force_scale_is_found(tmp_path: ob
 
 @pytest.mark.xfail(strict=True, reason=(
     "a known miss since one loop box (settings.loop_box, 2 for the refit of an accepted "
-    "model as for judging a candidate; the held-out sets gained 2 runs): the Stribeck "
-    "friction is missed, Coulomb friction alone named (605 -> 162 urad, floor 96.7 urad)"))
+    "model as for judging a candidate; the second simulator's held-out set gained 2 runs): "
+    "the Stribeck friction is missed, Coulomb friction alone named "
+    "(605 -> 162 urad, floor 96.7 urad)"))
 def test_a_slow_stick_slip_log_is_integrated_finely_enough_to_show_its_stiction(
         tmp_path: object) -> None:
     """The sweep's stribeck/15: a rotary cascade that saturates, logged at 100 Hz (no effort).
