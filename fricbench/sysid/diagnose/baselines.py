@@ -222,7 +222,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     not an effect.
 
     When no such limit is kept, a drive sized for its friction rather than for the motion is
-    searched: a grid of Coulomb forces (``settings.limit_start_friction_sized``, and ``fit``'s
+    searched: the grid of Coulomb forces (``settings.limit_start_friction``, and ``fit``'s
     own) with limits a little above each (``settings.limit_start_headroom``), the limit bounded
     below by ``settings.limit_lowest_friction_sized`` of the acceleration, on ``fit``'s loop and
     the ``n_best`` standard loops that rank best with one pair, the friction ``fit`` found (else
@@ -255,7 +255,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     # cogging cut that 2.7x)
     fitted = (float(fit.model.plant[CL.I_FC]) / a_ref
               if "coulomb_friction" in fit.model.effects else 0.0)
-    levels = sorted({*cfg.limit_start_friction_sized, *([fitted] if fitted > 0.0 else [])})
+    levels = sorted({*cfg.limit_start_friction, *([fitted] if fitted > 0.0 else [])})
     friction = [(f_fc, h * f_fc) for f_fc in levels for h in cfg.limit_start_headroom]
     # its grid of starts in two stages: every loop with the friction fitted without a limit
     # (else the largest level) and the lowest headroom, then every pair on the loops that

@@ -264,22 +264,22 @@ class DiagnoseSettings:
     limit_min_clipped : float
         Drive limit. Share of the samples the identified limit must clip (a limit that never
         acts is none). Tuned on the second simulator's tuning seeds (commit aa3670a).
-    limit_start_friction : tuple of float
-        Drive limit. Coulomb forces of the drive limit's grid of starts, in units of the
-        reference's largest acceleration. Tuned on the second simulator (commit 123fae0).
     limit_start_level : tuple of float
-        Drive limit. Limits of that grid of starts, in units of the reference's largest
-        acceleration. Tuned on the second simulator (commit 123fae0).
+        Drive limit. Limits of the first search's grid of starts (a drive sized for the
+        motion), in units of the reference's largest acceleration. Tuned on the second
+        simulator (commit 123fae0).
     limit_lowest : float
         Drive limit. Lowest drive limit fitted, in units of the reference's largest
         acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
-    limit_start_friction_sized : tuple of float
-        Drive limit. Coulomb forces of the second grid of starts (a drive sized for its
-        friction), in units of the reference's largest acceleration (the fit without a limit
-        adds its own). Tuned on the second simulator's tuning seeds (commit 848e47a).
+    limit_start_friction : tuple of float
+        Drive limit. Coulomb forces of both searches' grids of starts, in units of the
+        reference's largest acceleration (the second search adds the one the fit without a
+        limit found). Tuned on the second simulator's tuning seeds (commit 848e47a, for the
+        second search; the first had its own, 0.5 and 1.0, until the two were merged).
     limit_start_headroom : tuple of float
-        Drive limit. Limits of the second grid, in units of each start's Coulomb force. Tuned
-        on the second simulator's tuning seeds (commit 848e47a).
+        Drive limit. Limits of the second grid (a drive sized for its friction), in units of
+        each start's Coulomb force. Tuned on the second simulator's tuning seeds (commit
+        848e47a).
     limit_lowest_friction_sized : float
         Drive limit. Lowest drive limit of the second search, in units of the reference's
         largest acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
@@ -491,13 +491,12 @@ class DiagnoseSettings:
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
     limit_min_clipped: float = _setting(0.005, tuned=True, check=_NONNEG)
-    limit_start_friction: tuple[float, ...] = _setting((0.5, 1.0), tuned=True, check=_POSITIVES)
     limit_start_level: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
     limit_lowest: float = _setting(0.5, tuned=True, check=_POSITIVE)
-    limit_start_friction_sized: tuple[float, ...] = _setting((0.25, 0.5, 1.0), tuned=True,
-                                                             check=_POSITIVES)
+    limit_start_friction: tuple[float, ...] = _setting((0.25, 0.5, 1.0), tuned=True,
+                                                      check=_POSITIVES)
     limit_start_headroom: tuple[float, ...] = _setting((1.2, 1.5, 3.0), tuned=True,
-                                                       check=_POSITIVES)
+                                                      check=_POSITIVES)
     limit_lowest_friction_sized: float = _setting(0.1, tuned=True, check=_POSITIVE)
 
     # -- the simulations -------------------------------------------------------------------------
