@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 40 today; the one-method issue's target is at most 15.**
+**Tuned values: 39 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
