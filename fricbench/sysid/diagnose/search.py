@@ -25,8 +25,10 @@ size, refits every parameter with it (grey box) and repeats.
 Significance: with ``rho`` the ratio of held-out squared errors with and without the
 candidate, a candidate with ``p`` parameters must reach ``-ln(rho) >= min_gain +
 gain_per_param * p``; among those that do, the one with the largest gain *per parameter* wins
-(the simplest sufficient explanation first). The search stops when nothing passes, or when
-the position residual is at the noise floor of a free-run prediction.
+(the simplest sufficient explanation first). The search stops when nothing passes; a residual
+at the noise floor of a free-run prediction does not stop it (a friction effect needs no size
+against that floor, an effect that is not friction must stand above it:
+:func:`min_position_size`).
 """
 
 from __future__ import annotations
@@ -87,12 +89,17 @@ def effects_tried(settings: DiagnoseSettings) -> tuple[str, ...]:
 
 
 def min_position_size(settings: DiagnoseSettings, effect: str) -> float:
-    """Smallest rms position contribution of ``effect``, in noise floors: an effect that is not
-    friction must stand above what the verdict calls "at the floor" (``settings.floor_factor``
-    floors)."""
-    if get_effect(effect).friction:
-        return settings.min_position_share
-    return max(settings.min_position_share, settings.floor_factor)
+    """Smallest rms position contribution of ``effect``, in noise floors.
+
+    None for friction: the suspect of every axis is judged by its held-out cut and the
+    detection rule alone (its size within ``settings.detection_sd`` standard deviations of
+    zero is "not detected"), not by a size against a floor that is itself a bound (a
+    velocity-loop drive's friction can move its position by less than the floor's three
+    sensor noises and still cut the held-out error by half). An effect that is not friction
+    must stand above what the verdict calls "at the floor" (``settings.floor_factor`` floors),
+    else a flexible effect that cuts the held-out error is fitting what the loop model misses.
+    """
+    return 0.0 if get_effect(effect).friction else settings.floor_factor
 
 
 def required_gain(settings: DiagnoseSettings, n_params: int, effect: str | None = None,
@@ -1147,11 +1154,9 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # their noise-free twins (measured on simulated axes), hence the lower bound
         floor = max(min(prediction_floor(m, prep), floor_linear),
                     settings.floor_noise_factor * prep.noise.rms)
-        if cur.position_rms <= floor:
-            reason = (f"the position residual ({_length(prep, cur.position_rms)} rms) is at "
-                      f"the noise floor of a free-run prediction ({_length(prep, floor)}): "
-                      "nothing left to explain")
-            break
+        # a residual at that floor does not end the search: the floor is a bound (three
+        # sensor noises), and a friction whose cut the held-out error shows is there however
+        # small; the candidates' cuts and sizes decide, as on every other step
         # ---- linearised screen (under each loop estimate, before the first effect)
         variants: dict[str, list[_Variant]] = {}
         bases = [(m, cur.y)]

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 39 today; the one-method issue's target is at most 15.**
+**Tuned values: 38 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -134,15 +134,6 @@ class DiagnoseSettings:
     min_force_share : float
         Closed-loop search. Smallest rms force of a force effect relative to the rms effort
         (with an effort). Tuned: set by hand with the first search (commit 90b5a80).
-    min_position_share : float
-        Closed-loop search. Smallest rms position contribution of a friction effect, in noise
-        floors. An effect that is not friction needs :attr:`floor_factor` floors at least: its
-        whole signature in the free-run position must stand above what the verdict calls "at
-        the floor", else a flexible effect that cuts the held-out error is fitting what the
-        loop model misses (this was a field of its own, ``min_position_share_other``, tuned to
-        the same 1.5 on the second simulator's tuning seeds: 1.0 in commit 665d33b, raised
-        after a false thermal drift at 1.19 floors; the drifts present were named at 2.5
-        floors and more). Tuned: set by hand with the first search (commit 90b5a80).
     max_steps : int
         Closed-loop search. Most effects added. Not tuned: a budget.
     n_confirm : int
@@ -365,8 +356,12 @@ class DiagnoseSettings:
         at the floor: the verdict's "at the floor"; the mode comparison is skipped when the
         effort's loop is there already; and with an effort, once no force effect cuts the
         held-out effort error, force effects are judged on the free-run position until its
-        residual is at the floor; an effect that is not friction must stand above it
-        (:attr:`min_position_share`). One value for the four, which were three fields of the
+        residual is at the floor; an effect that is not friction judged on the free-run
+        position must stand above it (its rms contribution at least this many floors: its
+        whole signature must stand above what the verdict calls "at the floor", else a
+        flexible effect that cuts the held-out error is fitting what the loop model misses;
+        friction needs no size, :func:`~fricbench.sysid.diagnose.search.min_position_size`).
+        One value for the four, which were three fields of the
         same value (the verdict's, set by hand in commit 3998456; the position phase's, tuned
         on the second simulator's tuning seeds in commit 8b6c1cf; the non-friction effect's
         smallest size, tuned there in commit 665d33b). Tuned.
@@ -458,7 +453,6 @@ class DiagnoseSettings:
     min_gain_position_other: float = _setting(0.25, tuned=True, check=_NONNEG)
     gain_per_param: float = _setting(0.01, tuned=True, check=_NONNEG)
     min_force_share: float = _setting(0.005, tuned=True, check=_NONNEG)
-    min_position_share: float = _setting(0.5, tuned=True, check=_NONNEG)
     max_steps: int = _setting(8, tuned=False, check=_COUNT0)
     n_confirm: int = _setting(3, tuned=False, check=_COUNT)
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
