@@ -20,6 +20,7 @@ from fricbench.sysid.diagnose.criterion import (
     described_sd,
     effective_samples,
     parameter_covariance,
+    profile_statistic,
 )
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DiagnoseSettings
@@ -115,6 +116,33 @@ def test_covariance_is_least_squares_closed_form_on_white_noise() -> None:
     assert np.allclose(cov, s2 * np.linalg.inv(X.T @ X), rtol=1e-8)
     # a correlated residual worth a tenth of its samples: ten times the variance
     assert np.allclose(parameter_covariance(X, r, n_eff=50.0), 10 * cov, rtol=1e-8)
+
+
+@pytest.mark.parametrize("size", [0.0, 0.003, 0.01])
+def test_the_profile_statistic_is_the_squared_wald_one_on_a_linear_model(size: float) -> None:
+    # on a model linear in the size the two forms of the detection test are one:
+    # SSE0 / SSE1 = 1 + z^2 / (n - p) exactly, z the size over its sd, so n ln(SSE0 / SSE1)
+    # is z^2 to first order in z^2 / n, and both pass or fail the 2-sd level together
+    rng = np.random.default_rng(5)
+    n = 2000
+    X = np.column_stack([np.ones(n), rng.standard_normal(n)])
+    y = X @ np.array([0.3, size]) + 0.1 * rng.standard_normal(n)
+    theta, *_ = np.linalg.lstsq(X, y, rcond=None)
+    r1 = y - X @ theta
+    r0 = y - np.mean(y)  # refitted without the size: the intercept alone
+    z = theta[1] / math.sqrt(parameter_covariance(X, r1, n_eff=float(n))[1, 1])
+    stat = profile_statistic(float(r1 @ r1), float(r0 @ r0), float(n))
+    assert stat == pytest.approx(n * math.log1p(z * z / (n - 2)), rel=1e-9)
+    assert stat == pytest.approx(z * z, rel=0.02, abs=1e-3)
+    assert (stat > 4.0) == (abs(z) > 2.0)
+
+
+def test_the_profile_statistic_is_zero_without_evidence() -> None:
+    assert profile_statistic(0.0, 1.0, 10.0) == 0.0
+    assert profile_statistic(1.0, math.inf, 10.0) == 0.0
+    assert profile_statistic(1.0, math.nan, 10.0) == 0.0
+    # a fit without the effect that does better (a poorer optimum) is no evidence for it
+    assert profile_statistic(2.0, 1.0, 10.0) < 0.0
 
 
 def test_an_undetermined_direction_gets_a_huge_finite_variance() -> None:
