@@ -10,6 +10,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import cast
 
 import numpy as np
@@ -28,13 +29,18 @@ from fricbench.sysid.diagnose.baselines import (
 )
 from fricbench.sysid.diagnose.controllers import ArxController, CascadeController
 from fricbench.sysid.diagnose.coverage import Coverage, coverage
-from fricbench.sysid.diagnose.criterion import comparison_samples, criterion_change
+from fricbench.sysid.diagnose.criterion import (
+    comparison_samples,
+    criterion_change,
+    profile_statistic,
+)
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
 from fricbench.sysid.diagnose.models import (
     GreyBox,
     InverseDynamics,
     PositionFit,
     position_params,
+    run_concurrently,
     simulate_position,
 )
 from fricbench.sysid.diagnose.parameters import Bounds
@@ -146,6 +152,9 @@ class DiagnosisResult:
     diagnosis_warnings: list[str] = field(default_factory=list)
     mode_comparison: dict[str, object] | None = None
     not_detected: list[dict[str, object]] = field(default_factory=list)
+    profile_detected: dict[str, dict[str, float]] = field(default_factory=dict)
+    """Effects of the final model within ``detection_sd`` of zero by the Jacobian that the
+    profile form of the test detects: ``size_over_sd``, ``profile_statistic``, ``sse_ratio``."""
     validation_coverage: Coverage | None = None
     uncertainty: ModelUncertainty | None = None
     loop_decisions: list[dict[str, object]] = field(default_factory=list)
@@ -252,6 +261,7 @@ class DiagnosisResult:
                                            "free-run error at the final model, every free "
                                            "parameter (loop, damping, effects) in it")
         out["not_detected"] = self.not_detected
+        out["profile_detected"] = self.profile_detected
         if self.validation is not None and self.validation_run is not None:
             val: dict[str, object] = {"source": self.validation_run.source,
                                       "position": self.validation.position()}
@@ -929,6 +939,25 @@ def _effects(fit: _ModeFit) -> list[str]:
     return [st.effect for st in fit.search.steps[1:] if st.effect is not None]
 
 
+def _profile_statistic(final: GreyBox, name: str, fit: _ModeFit, n_eff: float
+                       ) -> tuple[float, float]:
+    """:func:`~fricbench.sysid.diagnose.criterion.profile_statistic` of ``name`` in ``final``,
+    and the ratio of the squared errors.
+
+    ``final`` and ``final`` without ``name`` are each refitted on the training run's free-run
+    position, every parameter the Jacobian of :func:`model_uncertainty` moves free, from the
+    final model's values (the same fit for both, so neither wins by its start).
+    """
+    assert fit.bounds is not None
+    w = _injected(final.controller, fit.prep)[0]
+    fits = run_concurrently([
+        partial(PositionFit(fit.prep, position_params(m, fit.bounds, controller=True,
+                                                      effects=list(m.effects)), None, w).run,
+                m, max_iter=12) for m in (final, final.without(name))])
+    ratio = fits[1].cost / fits[0].cost if fits[0].cost > 0.0 else math.inf
+    return profile_statistic(fits[0].cost, fits[1].cost, n_eff), ratio
+
+
 def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
              settings: DiagnoseSettings | None = None, compare_tf: bool = False,
              cutoff_hz: float | None = None, decim: int | None = None,
@@ -1048,9 +1077,13 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     fit, fit_warnings, fit_laws = fit_modes(search_settings)
     undetected: list[str] = []
     not_detected: list[dict[str, object]] = []
+    # effects the profile form of the test detected in the final model, and why
+    profile_detected: dict[str, dict[str, float]] = {}
+    profile_warnings: list[str] = []
     uncertainty = None
     tried = effects_tried(search_settings)
     for _ in range(len(tried)):
+        profile_detected, profile_warnings = {}, []
         if fit.bounds is None or not fit.finite:
             break
         final = fit.search.final.model
@@ -1061,6 +1094,26 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         needed = {r for e in final.effects for r in get_effect(e).requires}
         within = [e for e in uncertainty.within(search_settings.detection_sd)
                   if e not in needed and e in tried]
+        # the Jacobian's test is the linearised (Wald) form; a size the fit is far from linear
+        # in (a friction level that moves every stick-slip stop) can lie within its sd while
+        # the data cannot do without it: the profile (likelihood-ratio) form of the same test
+        # at the same level decides then (Bates & Watts 1988, ch. 6; Seber & Wild 1989, 5.9)
+        for name in list(within):
+            stat, ratio = _profile_statistic(final, name, fit, uncertainty.n_eff)
+            if stat > search_settings.detection_sd ** 2:
+                within.remove(name)
+                profile_detected[name] = {
+                    "size_over_sd": uncertainty.size_over_sd[name],
+                    "profile_statistic": stat, "sse_ratio": ratio}
+                profile_warnings.append(
+                    f"{name}: its size lies within {search_settings.detection_sd:g} standard "
+                    "deviations of zero by the Jacobian (|size|/sd "
+                    f"{uncertainty.size_over_sd[name]:.3g}), but the model refitted without it "
+                    f"leaves {ratio:.3g} times the squared error of the training run's free run "
+                    f"(n_eff ln ratio = {stat:.3g} > {search_settings.detection_sd ** 2:g}, "
+                    "the same test without the linearisation): detected, its reported "
+                    "standard deviation the linearised one")
+                log(f"warning: {profile_warnings[-1]}")
         if not within:
             break
         # a size the data cannot tell from zero is not detected: the least significant such
@@ -1084,7 +1137,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         search_settings = dataclasses.replace(search_settings, candidates=tried)
         fit, fit_warnings, fit_laws = fit_modes(search_settings)
         uncertainty = None
-    warnings += fit_warnings + undetected
+    warnings += fit_warnings + undetected + profile_warnings
     laws.update(fit_laws)
     prep, mode, fu, linear, search, train = (fit.prep, fit.mode, fit.force_unit, fit.linear,
                                              fit.search, fit.train)
@@ -1148,6 +1201,8 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
     if uncertainty is not None:
         # what stays although within its uncertainty: an effect another one needs
         for name in uncertainty.within(search_settings.detection_sd):
+            if name in profile_detected:
+                continue  # its warning above says why it stays
             warnings.append(
                 f"{name}: kept, as an effect of the model needs it, but its fitted size lies "
                 f"within {search_settings.detection_sd:g} standard deviations of zero "
@@ -1159,5 +1214,6 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                            elapsed_s=time.perf_counter() - t0, notes=notes, laws=laws,
                            diagnosis_warnings=warnings, mode_comparison=fit.comparison,
                            validation_coverage=val_coverage, uncertainty=uncertainty,
-                           not_detected=not_detected, loop_decisions=fit.loop_decisions,
+                           not_detected=not_detected, profile_detected=profile_detected,
+                           loop_decisions=fit.loop_decisions,
                            sensor_lines=lines, floor=floor)
