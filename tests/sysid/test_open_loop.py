@@ -202,6 +202,24 @@ def test_an_absent_effect_fitted_anyway_is_not_detected(effect: str) -> None:
     assert fit.model.plant[PL.FC] == pytest.approx(par["fc"], abs=10 * sd[i] + 0.01 * par["fc"])
 
 
+def test_a_friction_the_linearised_sd_holds_within_is_kept_by_its_profile(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # the Jacobian's test made to call the Coulomb friction within its sd (as it can where
+    # the free run is far from linear in the level): the fit without it leaves many times
+    # the squared error, so the profile form detects it and it stays, with its statistic
+    from fricbench.sysid.diagnose import open_loop as O
+
+    size_over_sd = O._size_over_sd
+    monkeypatch.setattr(O, "_size_over_sd", lambda fit, n_eff: {
+        **size_over_sd(fit, n_eff), "coulomb_friction": 0.5})
+    par, u, y = _draw(1)
+    fit = O.search_open_loop(u, y, TS, candidates=())
+    assert "coulomb_friction" in fit.model.effects
+    assert fit.not_detected == []
+    item = fit.profile_detected["coulomb_friction"]
+    assert item["size_over_sd"] == 0.5 and item["profile_statistic"] > 4.0
+
+
 def test_search_reports_the_parameters_standard_deviations() -> None:
     from fricbench.sysid.diagnose.open_loop import search_open_loop
 

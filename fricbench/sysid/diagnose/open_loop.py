@@ -41,10 +41,12 @@ from fricbench.sysid.diagnose.criterion import (
     held_covariance,
     kept_columns,
     least_detected,
+    profile_statistic,
     size_over_sd,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect, size_entries
 from fricbench.sysid.diagnose.effects.stribeck import _vs_range as vs_range
+from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.selection import Scored, select
 from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS, DiagnoseSettings, defaults
 from fricbench.sysid.diagnose.signals import (
@@ -145,6 +147,11 @@ class OpenLoopFit:
     not_detected : list of dict
         Effects the search chose whose sizes lay within ``detection_sd`` standard deviations
         of zero in the final fit, so left out.
+    profile_detected : dict
+        Effects of the final model whose sizes lie within ``detection_sd`` standard deviations
+        of zero by the Jacobian but that the profile form of the test detects
+        (:func:`~fricbench.sysid.diagnose.criterion.profile_statistic`): their
+        ``size_over_sd`` and ``profile_statistic``.
     floor : float
         Held-out free-run rms a perfect model of the chosen structure would still make
         (:func:`free_run_floor` of its block fits), m.
@@ -159,6 +166,7 @@ class OpenLoopFit:
     sd: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     n_eff: float = 0.0
     not_detected: list[dict[str, object]] = field(default_factory=list)
+    profile_detected: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def uncertainty(self, force_unit: str = "N") -> dict[str, object]:
         """Standard deviations of the reported parameters, keyed as :meth:`OpenLoopModel.
@@ -558,12 +566,14 @@ def _size_over_sd(fit: _Fit, n_eff: float) -> dict[str, float]:
     return out
 
 
-def _least_detected(fit: _Fit, n_eff: float, settings: DiagnoseSettings
-                    ) -> tuple[str, float] | None:
+def _least_detected(fit: _Fit, n_eff: float, settings: DiagnoseSettings,
+                    skip: Sequence[str] = ()) -> tuple[str, float] | None:
     """The effect whose sizes all lie within ``detection_sd`` standard deviations of zero
     (:func:`_size_over_sd`), the least significant first, with its statistic; None when every
-    one is detected (:func:`~fricbench.sysid.diagnose.criterion.least_detected`)."""
-    return least_detected(_size_over_sd(fit, n_eff), settings.detection_sd)
+    one is detected (:func:`~fricbench.sysid.diagnose.criterion.least_detected`). Effects in
+    ``skip`` (detected otherwise) are not considered."""
+    return least_detected({e: z for e, z in _size_over_sd(fit, n_eff).items() if e not in skip},
+                          settings.detection_sd)
 
 
 def describe_uncertainty(fit_model: OpenLoopModel, idx: Sequence[int], sd: np.ndarray,
@@ -654,11 +664,23 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
     fit = _fit_multistart(effects, effort, y, ts, full, n_init, starts)
     sd, n_eff = _uncertainty(fit, settings)
     not_detected: list[dict[str, object]] = []
-    for _ in range(len(effects)):
-        weak = _least_detected(fit, n_eff, settings)
+    # effects within their sd that the profile form of the test detects (in the current fit)
+    profiled: dict[str, dict[str, float]] = {}
+    for _ in range(2 * len(effects)):
+        weak = _least_detected(fit, n_eff, settings, skip=tuple(profiled))
         if weak is None:
             break
         name, z = weak
+        without = tuple(e for e in effects if e != name)
+        refit = _fit_multistart(without, effort, y, ts, full, n_init, [fit.model.plant])
+        stat = profile_statistic(sumsq(fit.residual), sumsq(refit.residual), n_eff)
+        if stat > settings.detection_sd ** 2:
+            # the linearised sd holds it within, the data cannot do without it: detected
+            profiled[name] = {"size_over_sd": z, "profile_statistic": stat}
+            say(f"  {name}: within {settings.detection_sd:g} standard deviations of zero "
+                f"(|size|/sd {z:.3g}), but the fit without it raises n_eff ln(SSE) by "
+                f"{stat:.3g} > {settings.detection_sd ** 2:g}: detected")
+            continue
         not_detected.append({"effect": name, "size_over_sd": z,
                              "parameters": describe_parameters(name, fit.model.plant,
                                                                force_unit),
@@ -666,13 +688,13 @@ def search_open_loop(effort: np.ndarray, y: np.ndarray, ts: float, *, n_init: in
                                                         force_unit).get(name, {})})
         say(f"  {name}: within {settings.detection_sd:g} standard deviations of zero "
             f"(|size|/sd {z:.3g}): not detected, fitted again without it")
-        effects = tuple(e for e in effects if e != name)
-        fit = _fit_multistart(effects, effort, y, ts, full, n_init, [fit.model.plant])
+        effects, fit, profiled = without, refit, {}
         sd, n_eff = _uncertainty(fit, settings)
     say(f"open loop: final {', '.join(effects) or 'rigid body'}: train free-run rms "
         f"{1e3 * fit.rms:.4g} mm")
     return OpenLoopFit(fit.model, fit.rms, chosen.scores, chosen.decisions, floor=floor,
-                       idx=tuple(fit.idx), sd=sd, n_eff=n_eff, not_detected=not_detected)
+                       idx=tuple(fit.idx), sd=sd, n_eff=n_eff, not_detected=not_detected,
+                       profile_detected=profiled)
 
 
 def free_run_errors(y_sim: np.ndarray, y: np.ndarray, n_init: int) -> dict[str, float]:
@@ -784,6 +806,14 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
                         f"fit its size lies within {settings.detection_sd:g} standard "
                         f"deviations of zero (|size|/sd {float(item['size_over_sd']):.3g}); "  # type: ignore[arg-type]
                         "left out")
+    for name, detected in fit.profile_detected.items():
+        warnings.append(f"{name}: its size lies within {settings.detection_sd:g} standard "
+                        f"deviations of zero by the Jacobian (|size|/sd "
+                        f"{detected['size_over_sd']:.3g}), but the fit without it raises "
+                        f"n_eff ln(SSE) by {detected['profile_statistic']:.3g} > "
+                        f"{settings.detection_sd ** 2:g} (the same test without the "
+                        "linearisation): detected, its reported standard deviation the "
+                        "linearised one")
     sc = _scales(effort, y, ts)
     p_lin = _idim_start(effort, y, ts, (), sc)
     p_lin[[PL.FC, PL.OFFSET]] = 0.0
@@ -853,6 +883,7 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
         "noise_floor": dict(noise.to_dict(), prediction_floor_m=floor),
         "sensor_disturbance": [ln.to_dict(position_unit[1], position_unit[0]) for ln in lines],
         "not_detected": fit.not_detected,
+        "profile_detected": fit.profile_detected,
         "position": train["position"],
         "effort": train["effort"],
         "search": {"heldout_rms_m": fit.heldout, "steps": fit.steps, "folds": folds,
