@@ -939,23 +939,28 @@ def _effects(fit: _ModeFit) -> list[str]:
     return [st.effect for st in fit.search.steps[1:] if st.effect is not None]
 
 
-def _profile_statistic(final: GreyBox, name: str, fit: _ModeFit, n_eff: float
-                       ) -> tuple[float, float]:
-    """:func:`~fricbench.sysid.diagnose.criterion.profile_statistic` of ``name`` in ``final``,
-    and the ratio of the squared errors.
+def _profile_statistics(final: GreyBox, names: list[str], fit: _ModeFit, n_eff: float
+                        ) -> dict[str, tuple[float, float]]:
+    """:func:`~fricbench.sysid.diagnose.criterion.profile_statistic` of each of ``names`` in
+    ``final``, with the ratio of the squared errors.
 
-    ``final`` and ``final`` without ``name`` are each refitted on the training run's free-run
+    ``final`` and ``final`` without each name are refitted on the training run's free-run
     position, every parameter the Jacobian of :func:`model_uncertainty` moves free, from the
-    final model's values (the same fit for both, so neither wins by its start).
+    final model's values (the same fit for all, so none wins by its start): ``final``'s fit
+    once, whatever the number of names, all of them at once.
     """
+    if not names:
+        return {}
     assert fit.bounds is not None
     w = _injected(final.controller, fit.prep)[0]
     fits = run_concurrently([
         partial(PositionFit(fit.prep, position_params(m, fit.bounds, controller=True,
                                                       effects=list(m.effects)), None, w).run,
-                m, max_iter=12) for m in (final, final.without(name))])
-    ratio = fits[1].cost / fits[0].cost if fits[0].cost > 0.0 else math.inf
-    return profile_statistic(fits[0].cost, fits[1].cost, n_eff), ratio
+                m, max_iter=12) for m in (final, *(final.without(e) for e in names))])
+    with_cost = fits[0].cost
+    return {e: (profile_statistic(with_cost, f.cost, n_eff),
+                f.cost / with_cost if with_cost > 0.0 else math.inf)
+            for e, f in zip(names, fits[1:], strict=True)}
 
 
 def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str = "N",
@@ -1098,8 +1103,9 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
         # in (a friction level that moves every stick-slip stop) can lie within its sd while
         # the data cannot do without it: the profile (likelihood-ratio) form of the same test
         # at the same level decides then (Bates & Watts 1988, ch. 6; Seber & Wild 1989, 5.9)
+        profiles = _profile_statistics(final, within, fit, uncertainty.n_eff)
         for name in list(within):
-            stat, ratio = _profile_statistic(final, name, fit, uncertainty.n_eff)
+            stat, ratio = profiles[name]
             if stat > search_settings.detection_sd ** 2:
                 within.remove(name)
                 profile_detected[name] = {

@@ -91,7 +91,7 @@ def effects_tried(settings: DiagnoseSettings) -> tuple[str, ...]:
 def min_position_size(settings: DiagnoseSettings, effect: str) -> float:
     """Smallest rms position contribution of ``effect``, in noise floors.
 
-    None for friction: the suspect of every axis is judged by its held-out cut and the
+    0 for friction: the suspect of every axis is judged by its held-out cut and the
     detection rule alone (its size within ``settings.detection_sd`` standard deviations of
     zero is "not detected"), not by a size against a floor that is itself a bound (a
     velocity-loop drive's friction can move its position by less than the floor's three
