@@ -440,7 +440,32 @@ def _heldout_effort_sse(idim: InverseDynamics, fits: dict[int, PositionFitResult
     return total
 
 
-def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
+def _probe_starts(m: GreyBox, name: str, prep: Prepared, b: Bounds, y: np.ndarray
+                  ) -> list[GreyBox]:
+    """Starts of candidate ``name`` at each of its probes (:meth:`Effect.probes`, the shapes
+    and sizes the position screen tries), every probed value set at once."""
+    m0 = _init_effect(m, name, prep, b)
+    out = []
+    for changes, fixed in get_effect(name).probes(m0.plant, m0.effects, prep, b, y):
+        q = m0.plant.copy()
+        for i, v in {**fixed, **changes}.items():
+            q[i] = v
+        out.append(m0.copy(plant=_physical(q, name, b, list(changes))))
+    return out
+
+
+def _best_start(starts: Sequence[GreyBox], prep: Prepared, w: np.ndarray | None,
+                mask: np.ndarray) -> GreyBox:
+    """The start whose free run leaves the least squared position error on ``mask`` (the
+    first when none stays finite)."""
+    if len(starts) == 1:
+        return starts[0]
+    ys, _, _ = _free_positions(starts, prep, w)
+    sse = [_position_sse(yy, prep, mask) for yy in ys]
+    return starts[int(np.argmin(sse))] if np.any(np.isfinite(sse)) else starts[0]
+
+
+def _force_by_position(m: GreyBox, y: np.ndarray, prep: Prepared, idim: InverseDynamics,
                        b: Bounds, settings: DiagnoseSettings, w: np.ndarray | None,
                        floor: float, log: Callable[[str], None], warnings: list[str]
                        ) -> tuple[list[CandidateScore],
@@ -479,9 +504,11 @@ def _force_by_position(m: GreyBox, prep: Prepared, idim: InverseDynamics,
             continue
         heldout = 0.0
         fk: dict[int, PositionFitResult] = {}
+        probed = _probe_starts(m, name, prep, b, y)
         for k in (0, 1):
             train = prep.folds != k
-            start = m.copy(plant=fold_rows[k], effects=effects)
+            start = _best_start([m.copy(plant=fold_rows[k], effects=effects), *probed], prep,
+                                w, train)
             res = PositionFit(prep, _force_params(start, b, [*forces, name]), train, w).run(
                 start, max_iter=8)
             fk[k] = res
@@ -596,8 +623,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
         m = cur.model
         judged_on_position = by_position
         if by_position:
-            scores, accepted = _force_by_position(m, prep, idim, b, settings, w, floor,
-                                                  log, warnings)
+            scores, accepted = _force_by_position(m, cur.y, prep, idim, b, settings, w,
+                                                  floor, log, warnings)
         else:
             base_cv, base_blocks, _ = idim.cv_blocks(m.effects, m.plant)
             base = (base_cv, base_blocks)
@@ -658,8 +685,8 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
                 # effects on it from here on
                 log("  the effort shows no more: force effects judged on the free-run position")
                 by_position = True
-                p_scores, accepted = _force_by_position(m, prep, idim, b, settings, w, floor,
-                                                        log, warnings)
+                p_scores, accepted = _force_by_position(m, cur.y, prep, idim, b, settings, w,
+                                                        floor, log, warnings)
                 scores = scores + p_scores
         if accepted is None:
             reason = ("no candidate improves the held-out position error significantly"
