@@ -228,7 +228,9 @@ def _bounds(i: int, ts: float, sc: dict[str, float]) -> tuple[float, float]:
         return defaults().compliance_zeta_range
     if i == PL.M:
         return 1e-12, np.inf
-    if i in (PL.FC, PL.FS_EXCESS):
+    if i in (PL.B, PL.FC, PL.FS_EXCESS):
+        # a viscous damping below zero feeds energy into the axis: the friction's decrease
+        # with speed is the Stribeck friction's, not a negative damping's
         return 0.0, np.inf
     return -np.inf, np.inf
 
@@ -311,7 +313,6 @@ def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
     scale = np.array([_param_scale(i, p0[i], sc) for i in idx])
     lo = np.array([_bounds(i, ts, sc)[0] for i in idx]) / scale
     hi = np.array([_bounds(i, ts, sc)[1] for i in idx]) / scale
-    z0 = np.clip(p0[idx] / scale, lo + 1e-9, hi - 1e-9)
 
     def rows(Z: np.ndarray) -> np.ndarray:
         P = np.repeat(p0[None, :], Z.shape[0], axis=0)
@@ -327,8 +328,19 @@ def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
         R = _segments_residual(rows(Z), effort, y, ts, segments, n_init)
         return ((R[1:] - R[0]) / h).T
 
-    res = least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
-                        xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+    # the damping's bound (never below zero: a passive axis) is a constraint the fit must
+    # meet, not a box to search in: trf scales its steps by the distance to every finite
+    # bound, so the fit runs without it and is redone within it only when it ends below it
+    # (from the projection of where it ended)
+    passive = np.array([i == PL.B for i in idx], dtype=bool)
+    lo_free = np.where(passive, -np.inf, lo)
+    res = least_squares(fun, np.clip(p0[idx] / scale, lo_free + 1e-9, hi - 1e-9), jac=jac,
+                        bounds=(lo_free, hi), method="trf", x_scale=1.0, xtol=1e-10,
+                        ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+    if np.any(res.x[passive] < lo[passive]):
+        res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac,
+                            bounds=(lo, hi), method="trf", x_scale=1.0, xtol=1e-10,
+                            ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
     p = p0.copy()
     p[idx] = res.x * scale
     # dr/dp = dr/dz / scale: the Jacobian in the plant row's own units
