@@ -603,6 +603,16 @@ def _effort_step_score(m: GreyBox, name: str, y: np.ndarray, prep: Prepared,
     return sc, proposal
 
 
+def _step_floor(m: GreyBox, steps: Sequence[Step], prep: Prepared, w: np.ndarray | None,
+                floor_linear: float, lower: float) -> float:
+    """The noise floor a search step judges with: the lower of the free-run floors of ``m``
+    (the model found so far) and of the linear model (``floor_linear``: a poorly damped model
+    exaggerates the noise it is fed), never below ``lower``. Both searches take it so; at the
+    first step ``m`` is the linear model, whose floor is not simulated again."""
+    own = floor_linear if len(steps) == 1 else prediction_floor(m, prep, w)
+    return max(min(own, floor_linear), lower)
+
+
 def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b: Bounds,
                         settings: DiagnoseSettings, w: np.ndarray | None,
                         log: Callable[[str], None], warnings: list[str]
@@ -622,12 +632,10 @@ def _search_with_effort(model: GreyBox, prep: Prepared, idim: InverseDynamics, b
     for _ in range(settings.max_steps):
         cur = steps[-1]
         m = cur.model
-        # the floor of the model found so far, as the search without an effort takes it (the
-        # lower of its and the linear model's estimates): a frictionless loop fed the noise can
-        # wander far more than the axis (a PID at its drive's limit: 0.80 mrad against 22 urad
-        # with the Coulomb friction found, the run's true floor 6.2 urad)
-        if len(steps) > 1:
-            floor = max(min(prediction_floor(m, prep, w), floor_linear), prep.noise.rms)
+        # the floor of the model found so far (a frictionless loop fed the noise can wander far
+        # more than the axis: a PID at its drive's limit, 0.80 mrad against 22 urad with the
+        # Coulomb friction found, the run's true floor 6.2 urad)
+        floor = _step_floor(m, steps, prep, w, floor_linear, prep.noise.rms)
         judged_on_position = by_position
         if by_position:
             scores, accepted = _force_by_position(m, cur.y, prep, idim, b, settings, w,
@@ -1186,8 +1194,8 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # a fitted model is also smoother than the axis (less stiction, so less sensitive to
         # noise): with stiction in the loop, runs deviate by 3..6 times the sensor noise from
         # their noise-free twins (measured on simulated axes), hence the lower bound
-        floor = max(min(prediction_floor(m, prep), floor_linear),
-                    settings.floor_noise_factor * prep.noise.rms)
+        floor = _step_floor(m, steps, prep, None, floor_linear,
+                            settings.floor_noise_factor * prep.noise.rms)
         # a residual at that floor does not end the search: the floor is a bound (three
         # sensor noises), and a friction whose cut the held-out error shows is there however
         # small; the candidates' cuts and sizes decide, as on every other step
