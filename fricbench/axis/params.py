@@ -189,6 +189,8 @@ class Axis:
         p[K.P_TH_AMP] = e.thermal_drift
         p[K.P_TH_TAU] = e.thermal_time_constant
         p[PL.TH_VHEAT] = e.thermal_heating_speed
+        p[PL.TH_STRAIN] = e.thermal_strain
+        p[PL.TH_X0] = e.thermal_strain_origin
         p[K.P_QUANT] = e.quantization
         p[K.P_NOISE] = e.noise_std
         p[K.P_DELAY] = e.delay_samples

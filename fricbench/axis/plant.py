@@ -41,7 +41,10 @@ speed ``v_heat`` at 0 it is a function of time, ``d_th = d_inf (1 - exp(-t / tau
     tau dtheta/dt = |v_M| / v_heat - theta ,   d_th = d_inf theta
 
 integrated exactly for the motor speed frozen over each substep (the mean of its ends), so
-``d_inf`` is the growth in sustained motion at ``v_heat`` and the drift relaxes at rest.
+``d_inf`` is the growth in sustained motion at ``v_heat`` and the drift relaxes at rest. A
+screw grows from its fixed bearing: its growth at the table is a strain times that distance,
+so the size ``d_inf`` may carry a part proportional to the table position, ``d_inf + strain
+(x - x0)`` (off while ``strain`` is 0; ``x0`` a fixed origin, e.g. the middle of the stroke).
 
 Compliance (off while the load fraction ``r`` is 0): the mass ``M`` splits into a motor side
 ``m_M = (1 - r) M`` (rotor, screw; the actuator force, the friction, the damping ``B``, the
@@ -140,7 +143,10 @@ COG_H2_SIN, COG_H2_COS, COG_H3_SIN, COG_H3_COS = range(PD_KNOT0 + PD_MAX_KNOTS,
                                                       PD_KNOT0 + PD_MAX_KNOTS + 4)
 """The cogging's second and third harmonics (a linear motor's magnets, a motor's slots and
 poles): sine and cosine coefficients on the cogging period."""
-N_PLANT = COG_H3_COS + 1
+TH_STRAIN, TH_X0 = COG_H3_COS + 1, COG_H3_COS + 2
+"""The thermal growth's strain (a screw's growth proportional to the distance from its fixed
+bearing) and the position it is measured from: ``d_th = s (d_inf + strain (x - x0))``."""
+N_PLANT = TH_X0 + 1
 PLANT_NAMES = (
     "ts", "n_substeps", "mass", "damping", "kt", "i_max", "delay_samples", "friction_kind",
     "fc", "dfc", "fs_excess", "vs", "delta", "fv", "dB", "sigma0", "sigma1", "offset",
@@ -150,7 +156,8 @@ PLANT_NAMES = (
     "log_motor", "thermal_heating_speed", "backlash_load_fraction",
     "compliance_friction_load", "compliance_b_motor_share", "pd_profile_start",
     "pd_profile_span", "pd_profile_knots", *(f"pd_profile_{i}" for i in range(PD_MAX_KNOTS)),
-    "cog_h2_sin", "cog_h2_cos", "cog_h3_sin", "cog_h3_cos",
+    "cog_h2_sin", "cog_h2_cos", "cog_h3_sin", "cog_h3_cos", "thermal_strain",
+    "thermal_strain_origin",
 )
 N_PLANT_RIGID = 32
 """Length of the plant row before compliance (rows of that length are padded by
@@ -171,8 +178,11 @@ N_PLANT_UNPROFILED = 40
 :func:`pad_row`)."""
 N_PLANT_FUNDAMENTAL = PD_KNOT0 + PD_MAX_KNOTS
 """Length of the plant row before the cogging's harmonics (padded by :func:`pad_row`)."""
+N_PLANT_UNSTRAINED = COG_H3_COS + 1
+"""Length of the plant row before the thermal growth's strain (padded by :func:`pad_row`)."""
 OLDER_PLANT_LENGTHS = (N_PLANT_RIGID, N_PLANT_COMPLIANT, N_PLANT_HEATED, N_PLANT_TWO_BODY,
-                       N_PLANT_LOAD_FRICTION, N_PLANT_UNPROFILED, N_PLANT_FUNDAMENTAL)
+                       N_PLANT_LOAD_FRICTION, N_PLANT_UNPROFILED, N_PLANT_FUNDAMENTAL,
+                       N_PLANT_UNSTRAINED)
 """Lengths of the earlier plant layouts :func:`pad_row` accepts (and stored rows may have)."""
 
 # -- plant state layout (the first entries of a driver's state row) -----------------------------
@@ -223,11 +233,12 @@ def pad_row(row: np.ndarray) -> np.ndarray:
 
     Rows of the rigid layout (32 entries), the compliant one (36), the one with the heating
     speed (37), the one with the two-body backlash (38), the one with the compliant axis's
-    friction on the load (39), the one before the friction profile (40) and the one before the
-    cogging's harmonics (55) are accepted: the entries added since (compliance, the logged
-    side, the thermal heating speed, the backlash's load fraction, the compliant axis's
-    friction on the load, the motor's share of its damping, the friction profile, the
-    cogging's harmonics) are appended off, so an older row keeps its meaning; a row of the
+    friction on the load (39), the one before the friction profile (40), the one before the
+    cogging's harmonics (55) and the one before the thermal strain (59) are accepted: the
+    entries added since (compliance, the logged side, the thermal heating speed, the
+    backlash's load fraction, the compliant axis's friction on the load, the motor's share of
+    its damping, the friction profile, the cogging's harmonics, the thermal strain) are
+    appended off, so an older row keeps its meaning; a row of the
     current length is returned as a copy.
     """
     r = np.asarray(row, dtype=float)
@@ -435,6 +446,8 @@ class Plant(NamedTuple):
     cog2_b: float
     cog3_a: float
     cog3_b: float
+    th_strain: float  # the thermal growth's strain, per metre from th_x0
+    th_x0: float
 
 
 def constants(p: np.ndarray) -> Plant:
@@ -514,7 +527,8 @@ def constants(p: np.ndarray) -> Plant:
                  two_body, m - m_load, p[B] - b_load, m_load, inv_pos_load, inv_neg_load,
                  b_load, load_fric, cl[0], cl[1], cl[2], cl[3], m_eff_load, inv_pos_cl,
                  inv_neg_cl, pd_n, p[PD_START], pd_inv_step, pd_knots, cog_harmonics,
-                 p[COG_H2_SIN], p[COG_H2_COS], p[COG_H3_SIN], p[COG_H3_COS])
+                 p[COG_H2_SIN], p[COG_H2_COS], p[COG_H3_SIN], p[COG_H3_COS], p[TH_STRAIN],
+                 p[TH_X0])
 
 
 def friction_scale(c: Plant, x: float) -> float:
@@ -786,16 +800,19 @@ def advance(c: Plant, x: float, v: float, z: float, x_play: float, d: float, dv:
     return x, v, z, x_play, d, dv, theta, f_sum / c.n_sub
 
 
-def thermal_drift(c: Plant, theta: float, t: float) -> float:
-    """Thermal growth of the table position: of the temperature ``theta``, or of time ``t``."""
+def thermal_drift(c: Plant, theta: float, t: float, x: float) -> float:
+    """Thermal growth of the table position ``x``: of the temperature ``theta``, or of time
+    ``t``; an offset and, with a strain, a part proportional to the distance from ``th_x0``."""
     drift = 0.0
-    if c.th_amp != 0.0:
+    if c.th_amp != 0.0 or c.th_strain != 0.0:
+        # the growth at x: d_inf + strain (x - x0) (a screw grows from its fixed bearing)
+        size = c.th_amp + c.th_strain * (x - c.th_x0)
         if c.heat:
-            # d = d_inf theta
-            drift = c.th_amp * theta
+            # d = size theta
+            drift = size * theta
         else:
-            # d(t) = d_inf (1 - exp(-t / tau))
-            drift = c.th_amp * (1.0 - math.exp(-t / c.th_tau))
+            # d(t) = size (1 - exp(-t / tau))
+            drift = size * (1.0 - math.exp(-t / c.th_tau))
     return drift
 
 
@@ -807,7 +824,7 @@ def sense(c: Plant, x_motor: float, x_play: float, d: float, theta: float, t: fl
     ``theta`` or of ``t``); the logged reading is the table's, or the motor's when the row logs
     the motor encoder (``log_motor``).
     """
-    x_table = x_play + d + thermal_drift(c, theta, t)
+    x_table = x_play + d + thermal_drift(c, theta, t, x_play + d)
     x_sensor = x_table if c.meas_table else x_motor
     x_log = x_motor if c.log_motor else x_table
     q = c.quant
@@ -819,7 +836,7 @@ def sense(c: Plant, x_motor: float, x_play: float, d: float, theta: float, t: fl
 
 def load_position(c: Plant, x_play: float, d: float, theta: float, t: float) -> float:
     """True (noise-free) table position at time ``t``: play, deflection and thermal drift."""
-    return x_play + d + thermal_drift(c, theta, t)
+    return x_play + d + thermal_drift(c, theta, t, x_play + d)
 
 
 def _sliding_force(p: np.ndarray, x: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
@@ -890,7 +907,7 @@ __all__ = [
     "default_row", "friction_scale", "profile_level", "PD_MAX_KNOTS", "PD_LEVEL_RANGE",
     "PD_START", "PD_SPAN",
     "PD_NKNOTS", "PD_KNOT0", "N_PLANT_UNPROFILED", "COG_H2_SIN", "COG_H2_COS", "COG_H3_SIN",
-    "COG_H3_COS", "N_PLANT_FUNDAMENTAL",
+    "COG_H3_COS", "N_PLANT_FUNDAMENTAL", "TH_STRAIN", "TH_X0", "N_PLANT_UNSTRAINED",
     "levels", "load_position", "pad_row", "position_force", "sense", "sliding_force",
     "thermal_drift",
     "TS", "NSUB", "M", "B", "KT", "IMAX", "DELAY", "FKIND", "FC", "DFC", "FS_EXCESS", "VS",

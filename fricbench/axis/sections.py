@@ -206,6 +206,14 @@ class Effects:
         default) makes the drift a function of time. Above 0 the drift is driven by motion: a
         normalised temperature follows ``tau dtheta/dt = |v_motor| / v_heat - theta`` from 0
         at the start of a run, the drift is ``thermal_drift * theta`` and relaxes at rest.
+    thermal_strain : float
+        Part of the growth proportional to the table position (a screw grows from its fixed
+        bearing), per metre from ``thermal_strain_origin``: the growth at ``x`` is
+        ``thermal_drift + thermal_strain (x - thermal_strain_origin)`` (0, the default: the
+        same growth all along the stroke). Dimensionless, at most 1e-3 in size (steel warmed
+        by 20 K strains 2.3e-4).
+    thermal_strain_origin : float
+        Position the strain's part is measured from, m.
     quantization : float
         Encoder step, m (rad on a rotary axis; 0: ideal), at most 0.1 (a hobby rig's
         potentiometer on a 10-bit ADC reads 0.061 rad a count).
@@ -267,6 +275,8 @@ class Effects:
     thermal_drift: float = 0.0
     thermal_time_constant: float = 600.0
     thermal_heating_speed: float = 0.0
+    thermal_strain: float = 0.0
+    thermal_strain_origin: float = 0.0
     quantization: float = 0.0
     noise_std: float = 0.0
     delay_samples: int = 0
@@ -296,6 +306,8 @@ class Effects:
         check_range("thermal_drift", self.thermal_drift, -1e-3, 1e-3, "m")
         check_positive("thermal_time_constant", self.thermal_time_constant, "s")
         check_nonneg("thermal_heating_speed", self.thermal_heating_speed, "m/s")
+        check_range("thermal_strain", self.thermal_strain, -1e-3, 1e-3)
+        check_finite("thermal_strain_origin", self.thermal_strain_origin)
         check_range("quantization", self.quantization, 0.0, 0.1, "m")
         check_range("noise_std", self.noise_std, 0.0, 1e-4, "m")
         check_int("delay_samples", self.delay_samples, 0, K.DELAY_MAX)

@@ -138,3 +138,32 @@ def test_rows_of_earlier_layouts_are_padded_with_the_time_law() -> None:
         assert row.shape == (PL.N_PLANT,) and row[PL.TH_VHEAT] == 0.0
     assert PL.PLANT_NAMES[PL.TH_VHEAT] == "thermal_heating_speed"
     assert len(PL.PLANT_NAMES) == PL.N_PLANT
+
+
+def test_a_strained_growth_is_proportional_to_the_distance_from_its_origin() -> None:
+    """A screw grows from its bearing: ``d = (d_inf + e (x - x0)) (1 - e^(-t/tau))``; with the
+    strain at 0 the 59-entry row's axis exactly."""
+    amp, strain, x0, tau, v0 = 2e-6, 3e-4, 0.04, 0.5, 0.05
+    n = 2000
+    row = _heated_row(amp, tau, 0.0)
+    row[PL.TH_STRAIN], row[PL.TH_X0] = strain, x0
+    y, x_motor = _free_run(row, np.zeros(n), v0, n_sub=4)
+    t = np.arange(n) * TS
+    want = (amp + strain * (x_motor - x0)) * -np.expm1(-t / tau)
+    np.testing.assert_allclose(y - x_motor, want, rtol=1e-12,
+                               atol=4 * np.finfo(float).eps * np.max(np.abs(x_motor)))
+    # the coasting table passes the origin: the growth changes sign with the distance
+    assert np.ptp(np.sign(x_motor - x0)) == 2.0
+    unstrained = _heated_row(amp, tau, 0.0)
+    assert np.array_equal(PL.pad_row(unstrained[:PL.N_PLANT_UNSTRAINED]), unstrained)
+    y0, _ = _free_run(unstrained, np.zeros(n), v0, n_sub=4)
+    np.testing.assert_allclose(y0 - x_motor, amp * -np.expm1(-t / tau), rtol=1e-12,
+                               atol=4 * np.finfo(float).eps * np.max(np.abs(x_motor)))
+
+
+def test_thermal_strain_is_validated() -> None:
+    with pytest.raises(ValueError, match=r"thermal_strain=0\.01: expected"):
+        Axis().with_effects(thermal_strain=0.01)
+    axis = Axis().with_effects(thermal_drift=5e-6, thermal_strain=2e-4,
+                               thermal_strain_origin=0.1)
+    assert axis.pack()[PL.TH_STRAIN] == 2e-4 and axis.pack()[PL.TH_X0] == 0.1

@@ -107,6 +107,8 @@ PLANT_PLACES: Mapping[str, tuple[str, str, str] | str] = {
     "cog_h2_cos": ("effects", "cogging_harmonic_phases", _F),
     "cog_h3_sin": ("effects", "cogging_harmonics", _F),
     "cog_h3_cos": ("effects", "cogging_harmonic_phases", _F),
+    "thermal_strain": ("effects", "thermal_strain", ""),
+    "thermal_strain_origin": ("effects", "thermal_strain_origin", ""),
 }
 
 # pairs stored as sine and cosine coefficients in the plant row, as amplitude and phase in an
@@ -116,8 +118,10 @@ _POLAR = {"cog_sin": "cog_cos", "pd_sin": "pd_cos"}
 # an effect's columns whose off value makes the others irrelevant (their defaults are kept)
 _ONLY_WITH = {"cog_period": ("cog_sin", "cog_cos", "cog_h2_sin", "cog_h2_cos", "cog_h3_sin",
                             "cog_h3_cos"), "pd_period": ("pd_sin", "pd_cos"),
-              "thermal_tau": ("thermal_amplitude",),
-              "thermal_heating_speed": ("thermal_amplitude",), "vs": ("fs_excess",),
+              "thermal_tau": ("thermal_amplitude", "thermal_strain"),
+              "thermal_heating_speed": ("thermal_amplitude", "thermal_strain"),
+              "vs": ("fs_excess",),
+              "thermal_strain_origin": ("thermal_strain",),
               "delta": ("fs_excess",), "pd_center": ("pd_gradient",),
               "compliance_frequency": ("compliance_load_fraction",),
               "compliance_damping": ("compliance_load_fraction",),
