@@ -38,7 +38,7 @@ def test_builtin_effects_in_search_order() -> None:
                             "force_offset", "backlash", "cogging", "cogging_harmonic_2",
                             "cogging_harmonic_3", "position_dependent_friction",
                             "friction_profile_3", "friction_profile_5", "friction_profile_9",
-                            "thermal_drift", "compliance")
+                            "thermal_drift", "thermal_strain", "compliance")
     assert effect_names()[: len(EFFECT_NAMES)] == EFFECT_NAMES
 
 

@@ -218,6 +218,23 @@ def test_an_open_loop_stribeck_friction_is_found_with_a_passive_damping(tmp_path
     assert out.report["parameters"]["viscous_A_s_m"] > 0.0
 
 
+def test_a_screw_growing_from_its_bearing_is_a_strained_thermal_drift_not_a_backlash(
+        tmp_path: Path) -> None:
+    # a tuning seed (THIRD_TUNING_SEEDS): the screw's growth at the table is its strain times
+    # the distance from its fixed bearing; a drift of one size all along the stroke left that
+    # part, which changes sign across the stroke, and a backlash was named for it
+    case = S.draw_case("warming_screw", 2)
+    assert case.machine.growth > 0.0
+    out = C.diagnose_case(case, tmp_path)
+    assert out.ok, out.failures
+    assert "backlash" not in out.effects
+    assert {"thermal_drift", "thermal_strain"} <= set(out.effects)
+    assert out.report is not None
+    strain = out.report["parameters"]["thermal_strain"]["strain"]
+    # the growth increases away from the bearing, which lies below the stroke
+    assert strain > 0.0 and case.machine.bearing < case.machine.x0
+
+
 def test_the_hum_is_found_in_a_short_run(cases: dict[str, S.Case], tmp_path: Path) -> None:
     case = cases["hum"]
     out = C.diagnose_case(case, tmp_path, extra_args=("--max-effects", "0"))

@@ -35,7 +35,8 @@ __all__ = ["N_PLANT", "PLANT_NAMES", "simulate_batch", "simulate_one", "default_
            "I_COGP", "I_PDG", "I_PDA", "I_PDB", "I_PDP", "I_XC", "I_BL", "I_THA", "I_THT", "I_THV",
            "I_IMAX", "I_DELAY",
            "I_CR", "I_CF", "I_CZ", "I_MEAS_TABLE", "I_LOG_MOTOR", "I_BL_LOAD",
-           "I_COMP_LOAD", "I_COMP_B_MOTOR", "I_COGH2A", "I_COGH2B", "I_COGH3A", "I_COGH3B"]
+           "I_COMP_LOAD", "I_COMP_B_MOTOR", "I_COGH2A", "I_COGH2B", "I_COGH3A", "I_COGH3B",
+           "I_THS", "I_THX0"]
 
 # -- the plant entries the diagnosis fits (indices into the plant row) --------------------------
 I_M, I_B, I_FC, I_DFC, I_DB = PL.M, PL.B, PL.FC, PL.DFC, PL.DB
@@ -44,6 +45,7 @@ I_COGA, I_COGB, I_COGP = PL.COG_SIN, PL.COG_COS, PL.COG_PERIOD
 I_COGH2A, I_COGH2B, I_COGH3A, I_COGH3B = PL.COG_H2_SIN, PL.COG_H2_COS, PL.COG_H3_SIN, PL.COG_H3_COS
 I_PDG, I_PDA, I_PDB, I_PDP, I_XC = PL.PD_GRAD, PL.PD_SIN, PL.PD_COS, PL.PD_PERIOD, PL.PD_CENTER
 I_BL, I_THA, I_THT, I_THV = PL.BACKLASH, PL.TH_AMP, PL.TH_TAU, PL.TH_VHEAT
+I_THS, I_THX0 = PL.TH_STRAIN, PL.TH_X0
 I_IMAX, I_DELAY = PL.IMAX, PL.DELAY
 I_BL_LOAD = PL.BL_LOAD
 I_COMP_LOAD = PL.COMP_LOAD

@@ -11,6 +11,7 @@ says). With ``sigma = sgn(v)`` and the friction scale
             + sum_n A_sn sin(2 pi n x / lambda) + A_cn cos(...)    its harmonics (n = 2, 3)
     y     = play_beta(x) + d_inf (1 - exp(-t / tau))               backlash, thermal drift
             (or + d_inf theta, tau theta' = |v| / v_heat - theta)   (of time, or of motion)
+            d_inf + e (x - x0) in place of d_inf                    its strain (a screw)
     m_M a_M = ... + k d + c d' ,  m_L a_L = -k d - c d'             compliance (d = x_L - x_M)
 
 Third parties add effects through the entry-point group ``fricbench.effects`` (a callable
@@ -62,6 +63,9 @@ for _knots in (3, 5, 9):
                                          f"linear between {_knots} knots")
 effect_registry.register("thermal_drift", f"{_PKG}.thermal:ThermalDrift",
                          description="a slow growth of the measured position with time")
+effect_registry.register("thermal_strain", f"{_PKG}.thermal_strain:ThermalStrain",
+                         description="the thermal growth's part proportional to the position "
+                                     "(a screw growing from its fixed bearing)")
 effect_registry.register("compliance", f"{_PKG}.compliance:Compliance",
                          description="motor and load masses on a spring and a damper (a "
                                      "resonance)")
