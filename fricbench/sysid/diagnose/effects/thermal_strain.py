@@ -28,6 +28,7 @@ from fricbench.sysid.diagnose.prepared import Prepared
 if TYPE_CHECKING:
     from fricbench.sysid.diagnose.models import GreyBox
 
+
 def _origin(prep: Prepared) -> float:
     """The strain's origin: the middle of the logged stroke."""
     return 0.5 * (float(np.min(prep.x)) + float(np.max(prep.x)))
