@@ -29,7 +29,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import welch
 
 from fricbench.axis import plant as PL
@@ -332,15 +332,15 @@ def _fit(model: OpenLoopModel, effort: np.ndarray, y: np.ndarray, ts: float, *,
     # meet, not a box to search in: trf scales its steps by the distance to every finite
     # bound, so the fit runs without it and is redone within it only when it ends below it
     # (from the projection of where it ended)
+    def solve(z0: np.ndarray, lower: np.ndarray) -> OptimizeResult:
+        return least_squares(fun, np.clip(z0, lower + 1e-9, hi - 1e-9), jac=jac,
+                             bounds=(lower, hi), method="trf", x_scale=1.0, xtol=1e-10,
+                             ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+
     passive = np.array([i == PL.B for i in idx], dtype=bool)
-    lo_free = np.where(passive, -np.inf, lo)
-    res = least_squares(fun, np.clip(p0[idx] / scale, lo_free + 1e-9, hi - 1e-9), jac=jac,
-                        bounds=(lo_free, hi), method="trf", x_scale=1.0, xtol=1e-10,
-                        ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+    res = solve(p0[idx] / scale, np.where(passive, -np.inf, lo))
     if np.any(res.x[passive] < lo[passive]):
-        res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac,
-                            bounds=(lo, hi), method="trf", x_scale=1.0, xtol=1e-10,
-                            ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+        res = solve(res.x, lo)
     p = p0.copy()
     p[idx] = res.x * scale
     # dr/dp = dr/dz / scale: the Jacobian in the plant row's own units

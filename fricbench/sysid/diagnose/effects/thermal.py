@@ -53,6 +53,14 @@ def heating_from_reference(prep: Prepared, tau: float, v_heat: float) -> np.ndar
     return np.concatenate(([0.0], after[:-1]))
 
 
+def drift_law(prep: Prepared, tau: float, v_heat: float) -> np.ndarray:
+    """The drift's shape at each sample, its size 1: heated by the reference speed
+    (:func:`heating_from_reference`) when ``v_heat > 0``, else ``1 - exp(-t / tau)``."""
+    if v_heat > 0.0:
+        return heating_from_reference(prep, tau, v_heat)
+    return 1.0 - np.exp(-prep.inputs.t / tau)
+
+
 class ThermalDrift(Effect):
     """``y = x + d_inf (1 - exp(-t / tau))``, or ``y = x + d_inf theta`` heated by motion."""
 
@@ -101,15 +109,12 @@ class ThermalDrift(Effect):
         heated by the simulated motor.
         """
         r = prep.x - y
-        t = prep.inputs.t
         v_heat = heating_speed(prep)
         best = (math.inf, 0.0, prep.duration, 0.0)
         for tau in np.maximum(prep.duration * np.array(defaults().thermal_tau_grid),
                               tau_floor(prep.duration)):
-            cols = [(0.0, 1.0 - np.exp(-t / tau))]
-            if v_heat > 0.0:
-                cols.append((v_heat, heating_from_reference(prep, tau, v_heat)))
-            for law, col in cols:
+            for law in ((0.0, v_heat) if v_heat > 0.0 else (0.0,)):
+                col = drift_law(prep, tau, law)
                 den = sumsq(col[mask])
                 if den <= 0:
                     continue

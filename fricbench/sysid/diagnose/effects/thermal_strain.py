@@ -20,7 +20,7 @@ import numpy as np
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe, SimulateFn
-from fricbench.sysid.diagnose.effects.thermal import heating_from_reference
+from fricbench.sysid.diagnose.effects.thermal import drift_law
 from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
@@ -81,11 +81,7 @@ class ThermalStrain(Effect):
         as the thermal drift's own start takes it)."""
         p = model.plant
         x0 = _origin(prep)
-        tau = float(p[CL.I_THT])
-        v_heat = float(p[CL.I_THV])
-        law = (heating_from_reference(prep, tau, v_heat) if v_heat > 0.0
-               else 1.0 - np.exp(-prep.inputs.t / tau))
-        col = law * (y - x0)
+        col = drift_law(prep, float(p[CL.I_THT]), float(p[CL.I_THV])) * (y - x0)
         r = prep.x - y
         den = sumsq(col[mask])
         strain = float(np.einsum("i,i->", col[mask], r[mask])) / den if den > 0.0 else 0.0
