@@ -404,9 +404,10 @@ class Compliance(Effect):
                  simulate: SimulateFn) -> str | None:
         """The resonance must be where the residual fell: the rigid model's residual rings in
         the band ``0.7 f_a .. 1.3 f_r`` and the compliant one removes most of that ringing
-        (``settings.compliance_band_residual_max``, ``settings.compliance_band_share_min``;
-        Welch spectra of the residuals,
-        weighted by ``f^2`` like :func:`resonance_candidates`)."""
+        (at most ``1 - settings.explained_share`` of it left in the band, and at least
+        ``settings.explained_share`` of the whole fall of the residual power there: the larger
+        part of each; Welch spectra of the residuals, weighted by ``f^2`` like
+        :func:`resonance_candidates`)."""
         p = model.plant
         f_r = float(p[CL.I_CF])
         f_a = f_r * math.sqrt(max(1.0 - float(p[CL.I_CR]), 0.0))
@@ -433,7 +434,7 @@ class Compliance(Effect):
         left = float(np.sum(p_with[band])) / rigid_band
         fall = float(np.sum(p_rigid - p_with))
         share = float(np.sum(p_rigid[band] - p_with[band])) / fall if fall > 0.0 else -1.0
-        if left > cfg.compliance_band_residual_max or share < cfg.compliance_band_share_min:
+        if left > 1.0 - cfg.explained_share or share < cfg.explained_share:
             return (f"{self.name}: the fitted resonance ({f_a:.3g} .. {f_r:.3g} Hz) is not "
                     f"where the residual fell ({100.0 * left:.0f} % of the rigid model's "
                     f"residual left in its band, {100.0 * share:.0f} % of the fall there): a "
@@ -443,8 +444,9 @@ class Compliance(Effect):
     def _deflection_evidence(self, pair: list[GreyBox], prep: Prepared, w: np.ndarray | None,
                              nper: int) -> str | None:
         """With a load encoder the coupling's deflection ``x_L - x_M`` is measured: the
-        compliant model must explain most of it (at most ``settings.compliance_band_residual_max``
-        of its power left in the deflection's residual), where the rigid model predicts none.
+        compliant model must explain the larger part of it (at most
+        ``1 - settings.explained_share`` of its power left in the deflection's residual), where
+        the rigid model predicts none.
         Under a loop tuned below the resonance the deflection is mostly the quasi-static lag
         ``F / k`` of the load, not a ringing, so the band test of the motor's residual would
         miss it; and its power is not weighted by ``f^2`` as the band test's is, which would
@@ -467,7 +469,7 @@ class Compliance(Effect):
         if p_rigid <= 0.0:
             return f"{self.name}: the two encoders show no deflection"
         left = p_with / p_rigid
-        if left > defaults().compliance_band_residual_max:
+        if left > 1.0 - defaults().explained_share:
             return (f"{self.name}: the fitted coupling leaves {100.0 * left:.0f} % of the "
                     "measured deflection between the two encoders: a flexible model standing in "
                     "for another mismatch")

@@ -72,9 +72,6 @@ class ThermalDrift(Effect):
     parameters = (CL.I_THA, CL.I_THT)
     shape_parameters = (CL.I_THT,)
 
-    def available(self, prep: Prepared) -> bool:
-        return prep.duration >= defaults().thermal_min_duration_s
-
     @staticmethod
     def _largest(b: Bounds) -> float:
         return max(1e-3, 0.1 * b.stroke)
