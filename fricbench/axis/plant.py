@@ -104,7 +104,7 @@ an effort unit for forces (``Kt = 1``) or a unit mass (forces become acceleratio
 (compliant) mass adds its columns (``compliance_*``, ``log_motor``) and state entries
 (``S_DEF``, ``S_DEFV``) here, and a second branch in :func:`advance`; the drivers only carry the
 state along. The motion-driven thermal drift does the same with one column
-(``thermal_heating_speed``, last in the row) and one state entry (``S_HEAT``).
+(``thermal_heating_speed``) and one state entry (``S_HEAT``).
 """
 
 from __future__ import annotations

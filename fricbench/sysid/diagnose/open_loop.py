@@ -844,7 +844,8 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
         ratio = rms / per["noise_between_periods"]
         at_floor = ratio <= settings.periodic_floor_factor
-        residual = ("at the noise floor (within 3x the noise between periods)" if at_floor
+        residual = (f"at the noise floor (within {settings.periodic_floor_factor:g}x the noise "
+                    "between periods)" if at_floor
                     else f"free-run error {ratio:.3g}x the noise between periods: the drift of "
                          "the rigid-body mode integrates what the model misses")
     else:
