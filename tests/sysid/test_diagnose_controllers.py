@@ -195,7 +195,7 @@ def test_a_clipping_drive_is_found_from_the_position() -> None:
     assert limit is not None
     assert 0.5 * truth < limit.level < 2.0 * truth, (limit, truth)
     assert limit.sse_ratio < DEFAULT_SETTINGS.limit_margin
-    assert limit.clipped_share > 0.0
+    assert limit.clipped_share >= DEFAULT_SETTINGS.limit_min_clipped
     res = diagnose(run)
     assert any("the drive clips" in w for w in res.warnings)
     assert res.final.plant[CL.I_IMAX] == pytest.approx(limit.level)
@@ -248,7 +248,7 @@ def test_a_drive_sized_for_its_friction_is_found_from_the_position(seed: int) ->
     true_headroom = truth - fc / plant.mass
     assert 0.75 * true_headroom < headroom < 1.25 * true_headroom, (headroom, true_headroom)
     assert found.sse_ratio < DEFAULT_SETTINGS.limit_margin
-    assert found.clipped_share > 0.0
+    assert found.clipped_share >= DEFAULT_SETTINGS.limit_min_clipped
 
 
 def test_a_drive_clipping_against_a_friction_many_times_the_motion_is_found(
@@ -275,7 +275,7 @@ def test_a_drive_clipping_against_a_friction_many_times_the_motion_is_found(
     found = BL.fit_drive_limit(fit, prep, bounds)
     assert found is not None
     assert found.level == pytest.approx(truth, rel=0.15)
-    assert found.sse_ratio < 0.05 and found.clipped_share > 0.0
+    assert found.sse_ratio < 0.05 and found.clipped_share >= DEFAULT_SETTINGS.limit_min_clipped
 
 
 def test_a_fast_loop_clipping_against_large_friction_is_found_from_a_slow_log() -> None:

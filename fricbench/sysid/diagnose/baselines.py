@@ -201,7 +201,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
                  ) -> tuple[DriveLimit | None, DriveLimit | None]:
     """The drive's command limit kept (or None), and else the best tentative one (or None).
 
-    A tentative limit clips at all (a limit that never acts is none) and leaves
+    A tentative limit clips at least ``settings.limit_min_clipped`` of the samples and leaves
     less than the squared error without it, but not ``settings.limit_margin`` of it; the kept
     one leaves less than that margin.
 
@@ -217,8 +217,9 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     against a friction as large as the motion's own acceleration lags so far that a fit without
     a limit finds no friction at all (the loop alone explains more): ``fit`` is then no start
     for the limit. The limit is kept when the error falls below ``settings.limit_margin`` of the
-    error without it and the fitted loop clips at all. Like the loop gains it is a property of
-    the loop the effects are then judged with, not an effect.
+    error without it and the fitted loop clips at least ``settings.limit_min_clipped`` of the
+    samples. Like the loop gains it is a property of the loop the effects are then judged with,
+    not an effect.
 
     When no such limit is kept, a drive sized for its friction rather than for the motion is
     searched: the grid of Coulomb forces (``settings.limit_start_friction``, and ``fit``'s
@@ -284,8 +285,8 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
     ``fit_levels`` and from the best ``n_best`` of the grid of ``loops`` and ``(Coulomb
     force, limit)`` ``pairs``, all in units of ``a_ref``, the limit bounded below by
     ``lowest`` of it (None: the limit held at its start). The best fit's limit, whatever the
-    error it leaves, when it clips at all (the criterion judges a limit that barely acts
-    as it judges any other), else None; and the grid's loops, best first (each by its best pair)."""
+    error it leaves, when it clips at least ``settings.limit_min_clipped`` of the samples,
+    else None; and the grid's loops, best first (each by its best pair)."""
     limit_params = ([] if lowest is None
                     else [Param(CL.I_IMAX, True, lowest * a_ref, 100.0 * a_ref, 1.0)])
     starts = []
@@ -327,7 +328,7 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         return None, ranked
     clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
     ratio = float(best.cost / fit.cost)
-    if clipped > 0.0:
+    if clipped >= defaults().limit_min_clipped:
         return DriveLimit(level, clipped, ratio, best.model), ranked
     return None, ranked
 

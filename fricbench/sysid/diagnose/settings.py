@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 34 today; the one-method issue's target is at most 15.**
+**Tuned values: 35 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -252,6 +252,9 @@ class DiagnoseSettings:
         Drive limit. A drive limit identified from the position alone is kept only when the
         loop with it fits the run with at most this fraction of the squared error without it.
         Tuned on the second simulator's tuning seeds (commit aa3670a).
+    limit_min_clipped : float
+        Drive limit. Share of the samples the identified limit must clip (a limit that never
+        acts is none). Tuned on the second simulator's tuning seeds (commit aa3670a).
     limit_start_level : tuple of float
         Drive limit. Limits of the first search's grid of starts (a drive sized for the
         motion), in units of the reference's largest acceleration. Tuned on the second
@@ -477,6 +480,7 @@ class DiagnoseSettings:
 
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
+    limit_min_clipped: float = _setting(0.005, tuned=True, check=_NONNEG)
     limit_start_level: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
     limit_lowest: float = _setting(0.5, tuned=True, check=_POSITIVE)
     limit_start_friction: tuple[float, ...] = _setting((0.25, 0.5, 1.0), tuned=True,
