@@ -5,6 +5,9 @@
   :class:`DiagnoseSettings`;
 * every field is documented and says whether its value was tuned (``metadata["tuned"]``);
 * the count of tuned fields may only fall (a ratchet towards the issue's 15);
+* the numbers written inline in each module (a bound, a start, a grid, a share, a unit) may
+  only fall too: the module-level scan misses them, and that is where the thresholds of the
+  case-by-case search also hid;
 * a bad value is refused with the field, the value and what was expected.
 """
 
@@ -105,6 +108,75 @@ def test_the_scan_sees_a_constant() -> None:
                      "if True:\n    E = 3\nF = 'x'\nG = (True,)\nH = len('ab')\n")
     found = {name for name, value in _module_assignments(tree.body) if _numeric_value(value)}
     assert found == {"A", "B", "C", "D", "E"}
+
+
+# Numbers written inline in each module of sysid/diagnose (settings.py aside) at the commit that
+# counted them: a ratchet. They are the effects' physical ranges and starts, grids, guards, unit
+# conversions and report formats, and also thresholds in all but name (the rest speed as 2 % of
+# the largest in prepared.py, the starts' grids of the loop). A new threshold, grid or start is a
+# field of DiagnoseSettings; a count that falls is lowered here.
+INLINE_NUMBERS_AT_MOST = {
+    "baselines.py": 33, "command.py": 4, "controllers.py": 16, "coverage.py": 5,
+    "criterion.py": 2, "diagnosis.py": 18, "effects/__init__.py": 3, "effects/asymmetric.py": 5,
+    "effects/backlash.py": 10, "effects/base.py": 8, "effects/cogging.py": 25,
+    "effects/cogging_harmonic.py": 4, "effects/compliance.py": 48, "effects/coulomb.py": 3,
+    "effects/friction_profile.py": 10, "effects/offset.py": 1,
+    "effects/position_dependent.py": 22, "effects/stribeck.py": 14, "effects/thermal.py": 10,
+    "effects/thermal_strain.py": 4, "equation_error.py": 15, "leastsq.py": 2, "models.py": 35,
+    "open_loop.py": 39, "parameters.py": 4, "prepared.py": 6, "report.py": 38, "search.py": 13,
+    "signals.py": 49, "twin.py": 11, "verdict.py": 18,
+}
+
+
+def _inline_numbers(tree: ast.AST) -> int:
+    """Numeric literals in ``tree`` but the structural ones (0, 1, 2, -1, a half) and the
+    guards and sentinels (a float of at most 1e-6 or at least 1e6 in size: a division's floor,
+    a tolerance, an "infinite" bound)."""
+    count = 0
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Constant) and isinstance(node.value, (int, float))
+                and not isinstance(node.value, bool)):
+            continue
+        value = node.value
+        if value in (0, 1, 2, -1, 0.5):
+            continue
+        if isinstance(value, float) and not 1e-6 < abs(value) < 1e6:
+            continue
+        count += 1
+    return count
+
+
+def _inline_counts() -> dict[str, int]:
+    folder = Path(D.__file__).parent
+    counts = {}
+    for path in sorted(folder.rglob("*.py")):
+        rel = path.relative_to(folder).as_posix()
+        if rel == "settings.py":
+            continue
+        n = _inline_numbers(ast.parse(path.read_text(encoding="utf-8")))
+        if n:
+            counts[rel] = n
+    return counts
+
+
+def test_no_module_of_the_diagnosis_writes_more_numbers_inline_than_it_did() -> None:
+    counts = _inline_counts()
+    print(f"{sum(counts.values())} numbers written inline in sysid/diagnose")
+    more = {k: (n, INLINE_NUMBERS_AT_MOST.get(k, 0)) for k, n in counts.items()
+            if n > INLINE_NUMBERS_AT_MOST.get(k, 0)}
+    assert not more, (f"numbers written inline (found, allowed): {more}; a threshold, a grid or "
+                      "a start belongs in DiagnoseSettings (sysid/diagnose/settings.py), "
+                      "documented with what it means and where its value came from")
+    fewer = {k: (counts.get(k, 0), n) for k, n in INLINE_NUMBERS_AT_MOST.items()
+             if counts.get(k, 0) < n}
+    assert not fewer, (f"fewer numbers written inline (found, allowed): {fewer}; lower "
+                       "INLINE_NUMBERS_AT_MOST to the counts found")
+
+
+def test_the_inline_scan_sees_a_threshold_and_not_a_guard() -> None:
+    code = ("def f(v, x):\n    if v < 0.02 * x and v > 1e-300:\n        return x[:3] * 2\n"
+            "    return max(x, 1e9) - 1 + 0.5 * True\n")
+    assert _inline_numbers(ast.parse(code)) == 2  # 0.02 and 3
 
 
 def _documented() -> dict[str, str]:
