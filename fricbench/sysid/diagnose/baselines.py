@@ -706,11 +706,12 @@ def _gain_on_bound(model: GreyBox, bounds: Bounds) -> str | None:
     """The loop gain of ``model`` that ended on a bound of :func:`~.models.position_params`
     (None: none did). A lower bound of 0 (no feedforward, no derivative filter) is a value a
     loop has, not a bound it was pushed to."""
+    tol = defaults().bound_tolerance
     for p in position_params(model, bounds, controller=True, damping=False, effects=()):
         if not isinstance(p.target, str):
             continue
         v = p.get(model)
-        if v >= p.hi * (1.0 - 1e-3) or (p.lo > 0.0 and v <= p.lo * (1.0 + 1e-3)):
+        if v >= p.hi * (1.0 - tol) or (p.lo > 0.0 and v <= p.lo * (1.0 + tol)):
             return p.target
     return None
 

@@ -56,9 +56,12 @@ class Param:
         d = value - 0.5 * (self.lo + self.hi)
         return replace(self, lo=self.lo + d, hi=self.hi + d)
 
-    def on_bound(self, value: float, tol: float = 1e-3) -> bool:
+    def on_bound(self, value: float, tol: float | None = None) -> bool:
         """Whether ``value`` ended within ``tol`` of the optimiser's range from a bound (the
-        test of a trust region's edge, in the optimiser's coordinate)."""
+        test of a trust region's edge, in the optimiser's coordinate; default
+        ``settings.bound_tolerance``)."""
+        if tol is None:
+            tol = defaults().bound_tolerance
         lo, hi = self.bounds()
         t = self.to_theta(value)
         return t <= lo + tol * (hi - lo) or t >= hi - tol * (hi - lo)

@@ -332,10 +332,12 @@ class DiagnoseSettings:
         Effects (compliance). Iterations of the refinement of a start with the loop free (runs
         without an effort). Not tuned: a budget.
     bound_tolerance : float
-        Effects. A parameter within this fraction of a bound (of the span; of the bound itself
-        for a log-scaled one) ended on it: the trust-region solver keeps its iterates inside
-        the box. Tuned on the second simulator's tuning seeds (1e-4, then 1e-3; commit
-        6601ec6).
+        Effects and loop. A parameter within this fraction of a bound (of the span; of the
+        bound itself for a log-scaled one) ended on it: the trust-region solver keeps its
+        iterates inside the box. The same fraction says when a position fit's trust region
+        is moved (of the optimiser's range) and when a loop gain ended on its bound (of the
+        bound itself), two inline 1e-3 until they read it. Tuned on the second simulator's
+        tuning seeds (1e-4, then 1e-3; commit 6601ec6).
     floor_noise_factor : float
         Noise floor. Lower bound of the free-run noise floor, in units of the measured sensor
         noise. Tuned: set by hand with the first search (commit 90b5a80).
