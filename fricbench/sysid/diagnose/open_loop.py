@@ -836,21 +836,37 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     assert isinstance(pos, dict)
     per = train.get("periodic")
     rms = float(pos["rms_after"])
-    # the three verdicts of the closed-loop diagnosis (fricbench.sysid.diagnose.verdict):
-    # effects against the linear rigid body, judged on the held-out (validation, else the
-    # training run's free-run) position; the noise between periods is the floor when the
-    # excitation repeats
-    at_floor = False
+    # the sensor's noise (third differences of the position, the motion's being small), and
+    # the mains' lines of the final free run's residual: no motion, so floor
+    noise = noise_floor(y, np.zeros_like(y))
+    resid = y - simulate_model(fit.model.plant, effort, y[:n_init], ts, n_init)[0]
+    lines = (sensor_lines(resid, ts, [(0, y.size)], "residual", settings,
+                          floor=noise.sensor_rms) if np.all(np.isfinite(resid)) else [])
+    floor = fit.floor
+    if lines:
+        noise = noise.with_lines(lines)
+        floor = math.hypot(fit.floor, noise.disturbance_rms)
+        warnings.append(disturbance_warning(lines, *position_unit))
+    # the three verdicts of the closed-loop diagnosis (fricbench.sysid.diagnose.verdict), by
+    # its rule: effects against the linear rigid body, judged on the held-out (validation,
+    # else the training run's free-run) position; at the floor when the free run is within
+    # settings.floor_factor floors of a held-out free run (the noise between periods, when the
+    # excitation repeats, is reported beside it: it was the floor, at its own factor, a tuned
+    # periodic_floor_factor, until the open loop had a floor of its own)
+    at_floor = floor > 0.0 and rms <= settings.floor_factor * floor
+    periods = ""
     if isinstance(per, dict) and per["noise_between_periods"] > 0.0:
-        ratio = rms / per["noise_between_periods"]
-        at_floor = ratio <= settings.periodic_floor_factor
-        residual = (f"at the noise floor (within {settings.periodic_floor_factor:g}x the noise "
-                    "between periods)" if at_floor
-                    else f"free-run error {ratio:.3g}x the noise between periods: the drift of "
-                         "the rigid-body mode integrates what the model misses")
+        periods = (f"; {rms / per['noise_between_periods']:.3g}x the noise between its "
+                   "periods")
+    if at_floor:
+        residual = (f"at the noise floor (within {settings.floor_factor:g}x the floor of a "
+                    f"held-out free run{periods})")
+    elif floor > 0.0:
+        residual = (f"free-run error {rms / floor:.3g}x the floor of a held-out free run"
+                    f"{periods}: the drift of the rigid-body mode integrates what the model "
+                    "misses")
     else:
-        residual = ("no repeated periods to estimate the noise: the free-run error is "
-                    "reported raw")
+        residual = "no floor to compare with: the free-run error is reported raw"
     held = train["position"]
     name = "training (free run)"
     if validate is not None:
@@ -873,17 +889,6 @@ def diagnose_open_loop(t: np.ndarray, effort: np.ndarray, y: np.ndarray, *,
     if float(pos["rms_after"]) > float(pos["rms_before"]):
         warnings.append("the selected model simulates worse than the linear rigid body on the "
                         "whole run (it was judged on held-out blocks)")
-    # the sensor's noise (third differences of the position, the motion's being small), and
-    # the mains' lines of the final free run's residual: no motion, so floor
-    noise = noise_floor(y, np.zeros_like(y))
-    resid = y - simulate_model(fit.model.plant, effort, y[:n_init], ts, n_init)[0]
-    lines = (sensor_lines(resid, ts, [(0, y.size)], "residual", settings,
-                          floor=noise.sensor_rms) if np.all(np.isfinite(resid)) else [])
-    floor = fit.floor
-    if lines:
-        noise = noise.with_lines(lines)
-        floor = math.hypot(fit.floor, noise.disturbance_rms)
-        warnings.append(disturbance_warning(lines, *position_unit))
     report: dict[str, object] = {
         "mode": "open_loop",
         "verdict": verdict,

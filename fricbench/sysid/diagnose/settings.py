@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 35 today; the one-method issue's target is at most 15.**
+**Tuned values: 34 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -343,7 +343,10 @@ class DiagnoseSettings:
         noise. Tuned: set by hand with the first search (commit 90b5a80).
     floor_factor : float
         Noise floor and verdict. A residual within this multiple of the free-run noise floor is
-        at the floor: the verdict's "at the floor"; the mode comparison is skipped when the
+        at the floor: the verdict's "at the floor" (both loops: the open loop's against the
+        floor of a held-out free run; it had its own factor, 3 times the noise between a
+        periodic run's periods, ``periodic_floor_factor``, tuned on a simulated two-mass run,
+        until it had a floor); the mode comparison is skipped when the
         effort's loop is there already; and with an effort, once no force effect cuts the
         held-out effort error, force effects are judged on the free-run position until its
         residual is at the floor; an effect that is not friction judged on the free-run
@@ -366,11 +369,6 @@ class DiagnoseSettings:
         most 0.5, the same bound; the share of the fall at least 0.25, where two-mass runs of
         an independent simulator gave 0.77 .. 0.93 and rigid runs a negative share); the
         held-out sets judged the convention in their place. Not tuned: the larger part.
-    periodic_floor_factor : float
-        Verdict (open loop). A periodic run whose free-run error is within this factor of the
-        noise between its periods is at the noise floor (a model fitted on one block and run
-        on another makes about twice its floor). Tuned on a simulated two-mass run (commit
-        15b888e).
     n_data_starts : int
         Open-loop search. Starts from the data kept (the best by free-run error) for an effect
         whose shape is fitted from the data. Not tuned: a budget.
@@ -520,7 +518,6 @@ class DiagnoseSettings:
     floor_noise_factor: float = _setting(3.0, tuned=True, check=_NONNEG)
     floor_factor: float = _setting(1.5, tuned=True, check=_POSITIVE)
     explained_share: float = _setting(0.5, tuned=False, check=_SHARE)
-    periodic_floor_factor: float = _setting(3.0, tuned=True, check=_POSITIVE)
     n_data_starts: int = _setting(2, tuned=False, check=_COUNT)
 
     # -- the signals -------------------------------------------------------------------------------
