@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 34 today; the one-method issue's target is at most 15.**
+**Tuned values: 33 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -131,9 +131,6 @@ class DiagnoseSettings:
         Closed-loop search. Extra required ``-ln`` ratio per parameter of the effect (the
         complexity penalty of the thresholds). Tuned: set by hand with the first search
         (commit 90b5a80).
-    min_force_share : float
-        Closed-loop search. Smallest rms force of a force effect relative to the rms effort
-        (with an effort). Tuned: set by hand with the first search (commit 90b5a80).
     max_steps : int
         Closed-loop search. Most effects added. Not tuned: a budget.
     n_confirm : int
@@ -448,7 +445,6 @@ class DiagnoseSettings:
     min_gain: float = _setting(0.03, tuned=True, check=_NONNEG)
     min_gain_position_other: float = _setting(0.25, tuned=True, check=_NONNEG)
     gain_per_param: float = _setting(0.01, tuned=True, check=_NONNEG)
-    min_force_share: float = _setting(0.005, tuned=True, check=_NONNEG)
     max_steps: int = _setting(8, tuned=False, check=_COUNT0)
     n_confirm: int = _setting(3, tuned=False, check=_COUNT)
     candidates: tuple[str, ...] | None = _setting(None, tuned=False, check=_NAMES)
