@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 33 today; the one-method issue's target is at most 15.**
+**Tuned values: 32 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -182,11 +182,6 @@ class DiagnoseSettings:
         at their rate on the encoder they read leave 0.1 %; semi-closed loops, slower logs and
         delays 0.4-20 %). A log slower than ``loop_ts`` never counts as exact. Tuned on the
         second simulator's tuning seeds (commit 58f6e3b).
-    law_max_relerr_pct : float
-        Loop structure. Largest relative error, %, of a control law identified from the effort
-        that is still used to simulate the loop (test pulses injected into the effort leave
-        10-15 %, EMPS's pulse run 13 %; a drive logged at 100 Hz 34 %). Tuned on EMPS and the
-        second simulator (commit 3998456).
     law_prefilters : tuple of float or None
         Loop structure. Prefilters the control law is fitted through, as fractions of the
         Nyquist frequency (None: unfiltered); see
@@ -457,7 +452,6 @@ class DiagnoseSettings:
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------
     loop_ts: float = _setting(1e-3, tuned=False, check=_POSITIVE)
     law_exact_pct: float = _setting(0.5, tuned=True, check=_NONNEG)
-    law_max_relerr_pct: float = _setting(25.0, tuned=True, check=_POSITIVE)
     law_prefilters: tuple[float | None, ...] = _setting((None, 1 / 4, 1 / 8, 1 / 16, 1 / 32),
                                                         tuned=False, check=_PREFILTERS)
     law_edge: int = _setting(8, tuned=False, check=_COUNT0)
