@@ -41,7 +41,7 @@ PLUMBING = {
 
 # Tuned fields of DiagnoseSettings at the commit that gathered them (a ratchet: the count may
 # only fall; the one-method issue's target is 15).
-TUNED_AT_MOST = 32
+TUNED_AT_MOST = 36
 
 
 def _numeric(node: ast.expr) -> bool:
@@ -112,9 +112,9 @@ def test_the_scan_sees_a_constant() -> None:
 
 # Numbers written inline in each module of sysid/diagnose (settings.py aside) at the commit that
 # counted them: a ratchet. They are the effects' physical ranges and starts, grids, guards, unit
-# conversions and report formats, and also thresholds in all but name (the rest speed as 2 % of
-# the largest in prepared.py, the starts' grids of the loop). A new threshold, grid or start is a
-# field of DiagnoseSettings; a count that falls is lowered here.
+# conversions and report formats, and also thresholds in all but name (the loop's starting
+# grids, the iteration budgets; prepared.py's four became fields). A new threshold, grid or
+# start is a field of DiagnoseSettings; a count that falls is lowered here.
 INLINE_NUMBERS_AT_MOST = {
     "baselines.py": 31, "command.py": 4, "controllers.py": 16, "coverage.py": 5,
     "criterion.py": 2, "diagnosis.py": 18, "effects/__init__.py": 3, "effects/asymmetric.py": 5,
@@ -123,7 +123,7 @@ INLINE_NUMBERS_AT_MOST = {
     "effects/friction_profile.py": 10, "effects/offset.py": 1,
     "effects/position_dependent.py": 22, "effects/stribeck.py": 14, "effects/thermal.py": 10,
     "effects/thermal_strain.py": 4, "equation_error.py": 15, "leastsq.py": 2, "models.py": 35,
-    "open_loop.py": 39, "parameters.py": 3, "prepared.py": 6, "report.py": 38, "search.py": 13,
+    "open_loop.py": 39, "parameters.py": 3, "prepared.py": 2, "report.py": 38, "search.py": 13,
     "signals.py": 49, "twin.py": 11, "verdict.py": 18,
 }
 

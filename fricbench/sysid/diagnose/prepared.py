@@ -203,19 +203,20 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     prep.folds_dec = prep.folds_dec[:n_dec]
     # rows of the inverse dynamics fitted: not at or near rest, where the friction force is
     # whatever holds the axis (set-valued) and no sliding law can predict it
-    v_rest = max(0.02 * prep.v_max, 1e-9)
+    cfg = defaults()
+    v_rest = max(cfg.rest_speed_share * prep.v_max, 1e-9)
     rest = prep.dec("rest", (np.abs(vf) < v_rest).astype(float))
-    prep.sliding_dec = rest < 0.05
+    prep.sliding_dec = rest < cfg.rest_row_share
     n_sliding = np.count_nonzero(prep.sliding_dec)
     # an axis that sticks most of the run (a slow move under a large breakaway force) still
     # slides on enough rows; fitting its stuck rows would fit the integral's wind-up against
     # the static friction (a Stribeck run sliding on 16 % of its rows: effort error 83 % with
     # every row, 3 % and the true mass, damping and Coulomb level on the sliding ones)
-    if n_sliding < 0.2 * n_dec and n_sliding < defaults().min_sliding_rows:
+    if n_sliding < cfg.few_sliding_share * n_dec and n_sliding < cfg.min_sliding_rows:
         prep.sliding_dec = np.ones(n_dec, dtype=bool)
     if sat is not None:
         # a clipped effort is the drive's limit, not the force the law asked for: the rows it
         # touches (after the decimation filter's spread) stay out of the friction fit
         near = prep.dec("saturated", sat.mask.astype(float))
-        prep.sliding_dec = prep.sliding_dec & (np.abs(near) < 0.01)
+        prep.sliding_dec = prep.sliding_dec & (np.abs(near) < cfg.clipped_row_share)
     return prep
