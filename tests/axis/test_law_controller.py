@@ -80,3 +80,24 @@ def test_unstable_law_is_refused() -> None:
 def test_bad_law_parameters(kw: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         ControllerParams(**kw)
+
+
+def test_the_tally_counts_what_is_simulated_inside_it_only() -> None:
+    """Rows, samples and plant steps of every simulate_batch call inside the block (a batch of
+    three rows and a single row), in every open tally, and nothing outside."""
+    axis = _axis()
+    ref = make_trajectory("m_serial", ts=TS)
+    row = axis.pack()[:N_PLANT]
+    kw = dict(n_sub=2, x0=ref.x[0], v0=ref.v[0], u_init=np.zeros((3, 0)),
+              y_init=ref.x[0] - ref.v[0] * TS * np.arange(1, 4))
+    n = ref.t.shape[0]
+    with linear_law.tally_simulations() as outer:
+        linear_law.simulate_batch(np.tile(row, (3, 1)), np.zeros((3, 0)),
+                                  np.tile(C, (3, 1)), KV * KP * ref.x, ref.t, TS, **kw)
+        with linear_law.tally_simulations() as inner:
+            linear_law.simulate_one(row, np.zeros(0), np.array(C), KV * KP * ref.x, ref.t, TS,
+                                    **{**kw, "u_init": np.zeros(0)})
+    linear_law.simulate_one(row, np.zeros(0), np.array(C), KV * KP * ref.x, ref.t, TS,
+                            **{**kw, "u_init": np.zeros(0)})
+    assert (outer.calls, outer.rows, outer.samples, outer.substeps) == (2, 4, 4 * n, 8 * n)
+    assert (inner.calls, inner.rows, inner.samples, inner.substeps) == (1, 1, n, 2 * n)
