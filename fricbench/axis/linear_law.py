@@ -126,11 +126,12 @@ def _run_one(p: np.ndarray, a: np.ndarray, c: np.ndarray, r: np.ndarray, w: np.n
 _run_one = numba.njit(cache=True, fastmath=FASTMATH)(_run_one)
 
 
-@dataclass
+@dataclass(eq=False)
 class SimulationTally:
     """What :func:`simulate_batch` simulated while the tally was open.
 
-    A count of work, not of time: the same run gives the same tally on any machine under any
+    Tallies compare by identity (two open ones may hold the same counts). A count of work,
+    not of time: the same run gives the same tally on any machine under any
     load (what a speed change does to the work shows here exactly, where a wall time moves by
     tens of per cent with the machine's load).
 

@@ -101,3 +101,10 @@ def test_the_tally_counts_what_is_simulated_inside_it_only() -> None:
                             **{**kw, "u_init": np.zeros(0)})
     assert (outer.calls, outer.rows, outer.samples, outer.substeps) == (2, 4, 4 * n, 8 * n)
     assert (inner.calls, inner.rows, inner.samples, inner.substeps) == (1, 1, n, 2 * n)
+    # two open tallies with the same counts: each closes its own
+    with linear_law.tally_simulations() as first:
+        with linear_law.tally_simulations():
+            pass
+        linear_law.simulate_one(row, np.zeros(0), np.array(C), KV * KP * ref.x, ref.t, TS,
+                                **{**kw, "u_init": np.zeros(0)})
+    assert first.rows == 1
