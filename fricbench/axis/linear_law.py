@@ -131,9 +131,10 @@ class SimulationTally:
     """What :func:`simulate_batch` simulated while the tally was open.
 
     Tallies compare by identity (two open ones may hold the same counts). A count of work,
-    not of time: the same run gives the same tally on any machine under any
-    load (what a speed change does to the work shows here exactly, where a wall time moves by
-    tens of per cent with the machine's load).
+    not of time: what a speed change does to the work shows here within a fraction of a per
+    cent, where a wall time moves by tens of per cent with the machine's load. Not to the
+    row: a caller that keeps runs it has simulated (the diagnosis's free-run cache) may
+    simulate one twice when two threads ask for it at once, as their timing has it.
 
     Attributes
     ----------
