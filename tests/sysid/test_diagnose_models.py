@@ -283,6 +283,37 @@ def test_bounded_least_squares_respects_bounds():
     assert sol.jac.shape == (3, 2)
 
 
+@pytest.mark.parametrize("max_iter", [0, 1, 3, 50])
+def test_a_fit_without_its_last_jacobian_ends_on_the_same_numbers(max_iter: int) -> None:
+    """Without the Jacobian at the end point, a fit that ends on max_iter simulates one batch
+    fewer and returns the same point, cost and residual, bit for bit; one that stops before
+    (max_iter 50: the cost stops falling) or never steps (max_iter 0) keeps its Jacobian."""
+    target = np.array([0.3, -2.0, 0.7])
+
+    def counted(rows: list[int]):
+        def residuals(thetas: np.ndarray) -> np.ndarray:
+            rows.append(thetas.shape[0])
+            return np.array([np.r_[th - target, np.sin(th[0] * th[1]), th[2] ** 3]
+                             for th in thetas])
+        return residuals
+
+    args = (np.array([1.0, 1.0, 1.0]), np.array([0.0, -3.0, -1.0]), np.array([2.0, 2.0, 2.0]),
+            np.array([1e-6, 1e-6, 1e-6]))
+    with_rows: list[int] = []
+    without_rows: list[int] = []
+    a = bounded_least_squares(counted(with_rows), *args, max_iter=max_iter)
+    b = bounded_least_squares(counted(without_rows), *args, max_iter=max_iter,
+                              final_jacobian=False)
+    np.testing.assert_array_equal(a.x, b.x)
+    np.testing.assert_array_equal(a.fun, b.fun)
+    assert a.cost == b.cost
+    if max_iter in (1, 3):
+        assert a.nfev == max_iter + 1  # it ended on max_iter
+        assert b.jac is None and sum(without_rows) == sum(with_rows) - 3
+    else:
+        assert b.jac.shape == (5, 3) and without_rows == with_rows
+
+
 def test_joint_position_fit_of_one_run_is_the_position_fit():
     """The joint fit stacks runs; with one run it is the single-run output-error fit."""
     ref = _reference(duration=4.0)

@@ -154,7 +154,7 @@ def fit_linear_cascade(prep: Prepared, n_best: int = 2, max_iter: int = 15
             continue
         m = starts[i]
         fit = PositionFit(prep, position_params(m, b0, controller=True))
-        res = fit.run(m, max_iter=max_iter)
+        res = fit.run(m, max_iter=max_iter, jacobian=True)  # the screen's columns
         if best is None or res.cost < best.cost:
             best = res
     if best is None:

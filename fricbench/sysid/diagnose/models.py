@@ -736,8 +736,14 @@ class PositionFit:
         ys, _, _ = simulate_models(models, self.prep, self.w, other=other, effort=False)
         return ys, other
 
-    def run(self, model: GreyBox, max_iter: int = 15) -> PositionFitResult:
+    def run(self, model: GreyBox, max_iter: int = 15, *, jacobian: bool = False
+            ) -> PositionFitResult:
         """Fit from ``model``'s current values; returns the fitted model and its position.
+
+        With ``jacobian`` the result keeps the Jacobian at its end point (``jac_rows``);
+        without it a fit that ends on ``max_iter`` does not simulate that last Jacobian
+        (:func:`~fricbench.sysid.diagnose.leastsq.bounded_least_squares`), and ``jac_rows``
+        may be None. The fitted values are the same numbers either way.
 
         A parameter whose bounds are a trust region (:attr:`Param.trust`) and that ends on
         one is fitted again with the region moved to its end point, up to
@@ -746,7 +752,7 @@ class PositionFit:
         of the two periods along the stroke (the second simulator's cogging/24: a period 4 %
         long, and a friction varying along the stroke named beside it).
         """
-        res = self._run_once(model, max_iter)
+        res = self._run_once(model, max_iter, jacobian)
         params = self.params
         for _ in range(defaults().trust_walks):
             moved = [p.recentred(p.get(res.model)) if p.trust and p.on_bound(p.get(res.model))
@@ -754,14 +760,15 @@ class PositionFit:
             if all(a is b for a, b in zip(moved, params, strict=True)):
                 break
             params = moved
-            walked = PositionFit(self.prep, params, self.mask, self.w)._run_once(res.model,
-                                                                                  max_iter)
+            walked = PositionFit(self.prep, params, self.mask, self.w)._run_once(
+                res.model, max_iter, jacobian)
             if not walked.cost < res.cost:
                 break
             res = walked
         return res
 
-    def _run_once(self, model: GreyBox, max_iter: int) -> PositionFitResult:
+    def _run_once(self, model: GreyBox, max_iter: int, jacobian: bool = True
+                  ) -> PositionFitResult:
         if not self.params:
             ys, loads = self._simulate([model])
             r = self._resid(ys[0], None if loads is None else loads[0])
@@ -778,7 +785,8 @@ class PositionFit:
                 last["batch"], last["thetas"] = ys, thetas.copy()
             return self._resids(ys, loads)
 
-        sol = bounded_least_squares(residuals, theta0, lo, hi, steps, max_iter=max_iter)
+        sol = bounded_least_squares(residuals, theta0, lo, hi, steps, max_iter=max_iter,
+                                    final_jacobian=jacobian)
         fitted = _models_at(model, self.params, sol.x[None, :])[0]
         y = None  # type: ignore[assignment]
         if "theta" in last and np.array_equal(last["theta"], sol.x):
@@ -789,7 +797,8 @@ class PositionFit:
                 y = last["batch"][hit[0]]
         if y is None:
             y = simulate_position(fitted, self.prep, self.w)[0]
-        return PositionFitResult(fitted, y, float(sol.cost), int(sol.njev), sol.jac.T)
+        return PositionFitResult(fitted, y, float(sol.cost), int(sol.njev),
+                                 None if sol.jac is None else sol.jac.T)
 
 
 class JointPositionFit:
