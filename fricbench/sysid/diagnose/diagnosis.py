@@ -1063,21 +1063,20 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
             else:
                 fit = _fit_effort(run, prep, linear, idim, bounds, ctrl_err, y_lin,
                                   (w, share, used), force_unit, settings, log, t0)
-                # the effort's diagnosis against the position's, by the criterion, whatever
-                # the law leaves of the effort (a law within 0.5 % of it, law_exact_pct, was
-                # taken for the controller's own and skipped the comparison)
-                fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0, idim)
-                if fit.mode == "position" and fit.comparison is not None:
-                    # what the per-unit-mass forces are in the effort's unit: the mass the
-                    # inverse dynamics gives with Coulomb friction (none when it is not
-                    # identified: on its zero bound, the effort then says nothing of it)
-                    mass = float(idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))[
-                        CL.I_M])
-                    if mass > 0.0 and math.isfinite(mass):
-                        fit.comparison["effort_mass"] = {
-                            f"mass_{force_unit}_s2_m": mass,
-                            "note": "inverse dynamics with Coulomb friction: a force per unit "
-                                    f"mass times this is the force in {force_unit}"}
+                if (ctrl_err > settings.law_exact_pct or not fit.finite
+                        or int(round(prep.ts / settings.loop_ts)) >= 2):
+                    fit = _better_of(fit, run, prep_pos, ctrl_err, settings, log, t0, idim)
+                    if fit.mode == "position" and fit.comparison is not None:
+                        # what the per-unit-mass forces are in the effort's unit: the mass the
+                        # inverse dynamics gives with Coulomb friction (none when it is not
+                        # identified: on its zero bound, the effort then says nothing of it)
+                        mass = float(idim.fit(("coulomb_friction",), CL.default_plant(1.0, 0.0))[
+                            CL.I_M])
+                        if mass > 0.0 and math.isfinite(mass):
+                            fit.comparison["effort_mass"] = {
+                                f"mass_{force_unit}_s2_m": mass,
+                                "note": "inverse dynamics with Coulomb friction: a force per unit "
+                                        f"mass times this is the force in {force_unit}"}
         if fit is None:
             # a law that cannot drive the loop leaves the effort a measured force all the same
             fit = _fit_position(run, prep_pos, settings, log, t0,
