@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 36 today; the one-method issue's target is at most 15.**
+**Tuned values: 35 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -229,8 +229,10 @@ class DiagnoseSettings:
     friction_starts : tuple of float
         Loop structure. Coulomb forces of the friction-aware fit's starts, in units of the
         run's force scale (the largest reference acceleration, or the linear loop's virtual
-        effort): the joint fit of a loop and its friction has several minima. Tuned on the
-        second simulator's tuning seeds (commit f4b1890).
+        effort): the joint fit of a loop and its friction has several minima. The drive
+        limit's two grids of starts take their Coulomb forces from it too, there in units of
+        the reference's largest acceleration (they had their own, 0.25, 0.5 and 1.0, tuned
+        apart until one grid served both). Tuned on the second simulator's tuning seeds (commit f4b1890).
     friction_raise : float
         Loop structure. Factor the friction levels' bounds are raised by when the
         friction-aware fit's Coulomb force ends on its bound. Tuned on the second simulator's
@@ -254,11 +256,6 @@ class DiagnoseSettings:
     limit_lowest : float
         Drive limit. Lowest drive limit fitted, in units of the reference's largest
         acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
-    limit_start_friction : tuple of float
-        Drive limit. Coulomb forces of both searches' grids of starts, in units of the
-        reference's largest acceleration (the second search adds the one the fit without a
-        limit found). Tuned on the second simulator's tuning seeds (commit 848e47a, for the
-        second search; the first had its own, 0.5 and 1.0, until the two were merged).
     limit_start_headroom : tuple of float
         Drive limit. Limits of the second grid (a drive sized for its friction), in units of
         each start's Coulomb force. Tuned on the second simulator's tuning seeds (commit
@@ -494,8 +491,6 @@ class DiagnoseSettings:
     limit_min_clipped: float = _setting(0.005, tuned=True, check=_NONNEG)
     limit_start_level: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
     limit_lowest: float = _setting(0.5, tuned=True, check=_POSITIVE)
-    limit_start_friction: tuple[float, ...] = _setting((0.25, 0.5, 1.0), tuned=True,
-                                                      check=_POSITIVES)
     limit_start_headroom: tuple[float, ...] = _setting((1.2, 1.5, 3.0), tuned=True,
                                                       check=_POSITIVES)
     limit_lowest_friction_sized: float = _setting(0.1, tuned=True, check=_POSITIVE)
