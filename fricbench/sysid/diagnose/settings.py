@@ -232,7 +232,8 @@ class DiagnoseSettings:
         effort): the joint fit of a loop and its friction has several minima. The drive
         limit's two grids of starts take their Coulomb forces from it too, there in units of
         the reference's largest acceleration (they had their own, 0.25, 0.5 and 1.0, tuned
-        apart until one grid served both). Tuned on the second simulator's tuning seeds (commit f4b1890).
+        apart until one grid served both). Tuned on the second simulator's tuning seeds
+        (commit f4b1890).
     friction_raise : float
         Loop structure. Factor the friction levels' bounds are raised by when the
         friction-aware fit's Coulomb force ends on its bound. Tuned on the second simulator's
