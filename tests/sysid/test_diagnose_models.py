@@ -21,6 +21,7 @@ from fricbench.sysid.diagnose.models import (
     JointPositionFit,
     PositionFit,
     position_params,
+    race_fits,
     simulate_inputs,
     simulate_models,
     simulate_position,
@@ -337,6 +338,57 @@ def test_joint_position_fit_of_one_run_is_the_position_fit():
     with pytest.raises(ValueError, match="preps is empty"):
         JointPositionFit([], params)
 
+
+
+def test_starts_that_race_spend_the_budget_on_the_best_heat(monkeypatch) -> None:
+    """Three starts of a friction fit race (``race_share`` a third): each runs a third of the
+    budget, only the best heat runs the rest, from where it ended (the same numbers as going
+    on by hand), and ends as low as the best of the three whole fits; one finalist per
+    family; a single start, or a race share of 1 (the default), is the whole fit, bit for
+    bit."""
+    from dataclasses import replace
+
+    from fricbench.sysid.diagnose import settings as S
+
+    assert S.DEFAULT_SETTINGS.race_share == 1.0
+    default = S.DEFAULT_SETTINGS
+    monkeypatch.setattr(S, "DEFAULT_SETTINGS", replace(default, race_share=1.0 / 3.0))
+
+    ref = _reference(duration=2.0)
+    axis = Axis().with_effects(noise_std=0.1e-6)
+    res = simulate(axis, ref, seed=3)
+    prep = prepare(validate_arrays(res.t, res.x_ref, res.x))
+    truth = _grey_box_of(Axis()).copy(effects=("coulomb_friction", "stribeck_friction"))
+    b = Bounds(force=5.0, stroke=prep.stroke, v_max=prep.v_max, duration=prep.duration,
+               ts=prep.ts, noise=prep.noise.rms)
+    params = position_params(truth, b, controller=False)
+    starts = []
+    for factor in (3.0, 1.2, 0.3):
+        st = truth.copy()
+        st.plant[CL.I_FC] *= factor
+        starts.append(st)
+    fit = PositionFit(prep, params)
+    raced = race_fits([(fit, st) for st in starts], 6)
+    heats = [fit.run(st, max_iter=2) for st in starts]
+    winner = int(np.argmin([h.cost for h in heats]))
+    assert [r is None for r in raced] == [i != winner for i in range(3)]
+    by_hand = fit.run(heats[winner].model, max_iter=4)
+    np.testing.assert_array_equal(raced[winner].model.plant, by_hand.model.plant)
+    assert raced[winner].cost == by_hand.cost <= heats[winner].cost
+    whole = [fit.run(st, max_iter=6) for st in starts]
+    assert raced[winner].cost <= 1.05 * min(w.cost for w in whole)
+    # a family per start: every start is its family's best heat and finishes
+    assert all(r is not None for r in race_fits([(fit, st) for st in starts], 6,
+                                                family=lambda m: m.plant[CL.I_FC]))
+    # an eligibility test keeps a heat out of the final
+    shut = race_fits([(fit, st) for st in starts], 6, eligible=lambda i, h: i != winner)
+    assert shut[winner] is None and sum(r is not None for r in shut) == 1
+    alone = race_fits([(fit, starts[1])], 6)[0]
+    np.testing.assert_array_equal(alone.model.plant, whole[1].model.plant)
+    monkeypatch.setattr(S, "DEFAULT_SETTINGS", default)
+    every = race_fits([(fit, st) for st in starts], 6)
+    for r, w in zip(every, whole, strict=True):
+        assert r is not None and r.cost == w.cost
 
 def test_a_period_off_by_more_than_its_trust_region_walks_to_the_truth():
     """A cogging period started 6 % long: the fit's period moves 2 % at a time (a trust

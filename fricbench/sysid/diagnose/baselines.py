@@ -7,7 +7,6 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from functools import partial
 
 import numpy as np
 
@@ -29,7 +28,7 @@ from fricbench.sysid.diagnose.models import (
     PositionFitResult,
     cascade_effort,
     position_params,
-    run_concurrently,
+    race_fits,
     simulate_inputs,
     simulate_models,
 )
@@ -315,10 +314,12 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         ranked = []
     if not starts:
         return None, ranked
-    # independent fits: on two threads at once (the same numbers)
-    fits = run_concurrently([
-        partial(PositionFit(prep, position_params(m, bounds, controller=True)
-                            + limit_params).run, m, max_iter=max_iter) for m in starts])
+    # the starts race (the best heat finishes), on two threads at once (the same numbers)
+    fits = [r for r in race_fits(
+        [(PositionFit(prep, position_params(m, bounds, controller=True) + limit_params), m)
+         for m in starts], max_iter) if r is not None]
+    if not fits:
+        return None, ranked
     best = min(fits, key=lambda r: r.cost)
     if not np.isfinite(best.cost):
         return None, ranked
@@ -609,19 +610,23 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     n_grid = len(loops) * len(friction_starts)
     best = None
     best_pid = None
-    # the starts' fits are independent: on two threads at once (the same numbers)
+    # the starts race (each family's best heat finishes) on two threads at once (the same
+    # numbers); an equation error's loop whose heat left a gain on its bound runs no further
     order = [i for i in order if np.isfinite(sse[i])]
-    refined = run_concurrently([
-        partial(PositionFit(prep, position_params(starts[i], bounds, controller=True)).run,
-                starts[i], max_iter=max_iter) for i in order])
+    refined = race_fits(
+        [(PositionFit(prep, position_params(starts[i], bounds, controller=True)), starts[i])
+         for i in order], max_iter, family=_is_pid,
+        eligible=lambda j, heat: order[j] < n_grid or _gain_on_bound(heat.model, bounds) is None)
     for i, res in zip(order, refined, strict=True):
+        if res is None:
+            continue
         if i >= n_grid and _gain_on_bound(res.model, bounds) is not None:
             # an equation error's loop refined to a gain on its bound stands in for another
             # mismatch (a thermal drift, on the second simulator's thermal/2: its feedforwards
             # at 1.5, or its position integral at its least and its derivative filter at its
             # longest, and a force offset named instead of the drift)
             continue
-        if isinstance(res.model.controller, CascadeController) and res.model.controller.is_pid:
+        if _is_pid(res.model):
             if best_pid is None or res.cost < best_pid.cost:
                 best_pid = res
         elif best is None or res.cost < best.cost:
@@ -631,6 +636,12 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     if best_pid is not None and (best is None or _pid_wins(best_pid, best, prep, bounds)):
         best = best_pid
     return best
+
+
+def _is_pid(model: GreyBox) -> bool:
+    """Whether ``model``'s loop is a PID position loop (else a cascade): the two families of
+    loops :func:`friction_aware_fit` compares."""
+    return isinstance(model.controller, CascadeController) and model.controller.is_pid
 
 
 def _pid_wins(pid: PositionFitResult, cascade: PositionFitResult, prep: Prepared,

@@ -66,6 +66,7 @@ from fricbench.sysid.diagnose.models import (
     cascade_effort,
     position_params,
     prediction_floor,
+    race_fits,
     run_concurrently,
     simulate_models,
     simulate_position,
@@ -1223,18 +1224,21 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
         # from each of the given loops too and keeps the better fit of its training fold
         loops = [m.controller] + (list(alt_loops) if len(steps) == 1 else [])
 
-        def fold_fit(start: GreyBox, train: np.ndarray,
-                     loops: list = loops) -> PositionFitResult:
-            best: PositionFitResult | None = None
-            # an output effect's start may bring its own loop (compliance: a rigid loop fitted
-            # to a compliant axis is far off): it is tried first, boxed like the others
-            for loop in dict.fromkeys([start.controller, *loops]):
-                s0 = start.copy(controller=loop)
-                res = PositionFit(prep, _eval_params(s0, b), train).run(s0, max_iter=budget_iter)
-                if best is None or res.cost < best.cost:
-                    best = res
-            assert best is not None
-            return best
+        def fold_fits(starts: Sequence[GreyBox], train: np.ndarray,
+                      loops: list = loops) -> PositionFitResult:
+            # every start under every loop, racing (the best heat finishes); an output
+            # effect's start may bring its own loop (compliance: a rigid loop fitted to a
+            # compliant axis is far off): it is tried first, boxed like the others
+            pairs = []
+            for start in starts:
+                for loop in dict.fromkeys([start.controller, *loops]):
+                    s0 = start.copy(controller=loop)
+                    pairs.append((PositionFit(prep, _eval_params(s0, b), train), s0))
+            done = [r for r in race_fits(pairs, budget_iter) if r is not None]
+            return min(done, key=lambda r: r.cost)
+
+        def fold_fit(start: GreyBox, train: np.ndarray) -> PositionFitResult:
+            return fold_fits([start], train)
 
         base_heldout = 0.0
         base_blocks = np.zeros(0)
@@ -1291,7 +1295,7 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
                     starts += _equation_error_starts(m, name, prep, b, train)
                 if name in runners_up:
                     starts.append(_carried_over(m, name, runners_up[name][k]))
-                return min((fold_fit(st, train) for st in starts), key=lambda r: r.cost)
+                return fold_fits(starts, train)
 
             # each fold's starts and fits are its own: both folds on two threads at once
             fold_results = run_concurrently([partial(candidate_fit, k) for k in (0, 1)])

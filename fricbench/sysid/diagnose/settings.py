@@ -172,6 +172,17 @@ class DiagnoseSettings:
         Closed-loop search. How many times a position fit moves a trust region a parameter
         ended on (:meth:`~fricbench.sysid.diagnose.models.PositionFit.run`). Not tuned: a
         budget.
+    race_share : float
+        Closed-loop search and loop structure. Share of a fit's iterations every start runs
+        before only the best heat (of each loop family, PID or cascade, in the friction-aware
+        fit) runs the rest, in the fits from several starts: the friction-aware loop's, the
+        drive limit's and the effects' fold fits (a race, successive halving with one round:
+        Jamieson & Talwalkar, AISTATS 2016; :func:`~fricbench.sysid.diagnose.models.race_fits`).
+        1, the default: no race, every start runs the whole budget. A third cuts the work of
+        ``diagnose_timing``'s run by 36 % (5,898 -> 3,788 free runs) and cost one run of each
+        held-out set (second simulator 81/102 against 82/102, third 106/112 against 107/112;
+        docs/diagnosis_method.md): an option that trades accuracy for speed. Not tuned: a
+        budget.
     loop_ts : float
         Loop structure. Period of the model's loop when the log is slower, s: drives close
         their position loop at 1 kHz or faster, and a loop simulated at a 100 Hz log's rate
@@ -467,6 +478,8 @@ class DiagnoseSettings:
     quantum_multiples: tuple[int, ...] = _setting((1, 2, 3, 4), tuned=False, check=_COUNTS)
     loop_box: float = _setting(2.0, tuned=True, check=_AT_LEAST_1)
     trust_walks: int = _setting(3, tuned=False, check=_COUNT0)
+    race_share: float = _setting(1.0, tuned=False, check=(
+        "a share in (0, 1]", lambda v: _real(v) and 0.0 < v <= 1.0))
 
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------
     loop_ts: float = _setting(1e-3, tuned=False, check=_POSITIVE)
