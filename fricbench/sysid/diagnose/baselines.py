@@ -314,7 +314,8 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         ranked = []
     if not starts:
         return None, ranked
-    # the starts race (the best heat finishes), on two threads at once (the same numbers)
+    # independent fits, on two threads at once (the same numbers); with settings.race_share
+    # below 1 the starts race (only the best heat finishes)
     fits = [r for r in race_fits(
         [(PositionFit(prep, position_params(m, bounds, controller=True) + limit_params), m)
          for m in starts], max_iter) if r is not None]
@@ -610,8 +611,9 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     n_grid = len(loops) * len(friction_starts)
     best = None
     best_pid = None
-    # the starts race (each family's best heat finishes) on two threads at once (the same
-    # numbers); an equation error's loop whose heat left a gain on its bound runs no further
+    # independent fits, on two threads at once (the same numbers); with settings.race_share
+    # below 1 the starts race (each family's best heat finishes), and an equation error's
+    # loop whose heat left a gain on its bound runs no further
     order = [i for i in order if np.isfinite(sse[i])]
     refined = race_fits(
         [(PositionFit(prep, position_params(starts[i], bounds, controller=True)), starts[i])

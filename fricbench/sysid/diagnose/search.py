@@ -1226,9 +1226,10 @@ def _search_without_effort(model: GreyBox, y: np.ndarray, prep: Prepared, b: Bou
 
         def fold_fits(starts: Sequence[GreyBox], train: np.ndarray,
                       loops: list = loops) -> PositionFitResult:
-            # every start under every loop, racing (the best heat finishes); an output
-            # effect's start may bring its own loop (compliance: a rigid loop fitted to a
-            # compliant axis is far off): it is tried first, boxed like the others
+            # every start under every loop (racing, only the best heat finishing, when
+            # settings.race_share is below 1); an output effect's start may bring its own
+            # loop (compliance: a rigid loop fitted to a compliant axis is far off): it is
+            # tried first, boxed like the others
             pairs = []
             for start in starts:
                 for loop in dict.fromkeys([start.controller, *loops]):
