@@ -818,19 +818,19 @@ def race_fits(fits: Sequence[tuple[PositionFit, GreyBox]], max_iter: int, *,
               eligible: Callable[[int, PositionFitResult], bool] | None = None
               ) -> list[PositionFitResult | None]:
     """Each ``(fit, start)`` fitted for up to ``max_iter`` iterations, the starts racing:
-    every one runs ``settings.race_share`` of them (its heat), then only the best heat of
-    each ``family`` (one family when None) among those ``eligible(i, heat)`` accepts runs
-    the rest, from where its heat ended.
+    every one runs ``settings.race_share`` of them (its heat), then the best heat of each
+    ``family`` (one family when None), among the heats for which ``eligible(i, heat)`` is
+    true, runs the rest from where it ended.
 
     Returns one entry per start, in their order: the finalists' fits, None for the others
     (a single start, or ``settings.race_share`` 1: every start's whole fit; no heat finite
-    or eligible: the heats). Starts of a fit that has
-    several minima land in different basins within a few iterations, and the rest of the
-    budget only refines one: every start running the whole budget spends free runs on basins
-    it then throws away (the friction-aware loop's starts and the drive limit's were 36 % of
-    the timing run's work, the effects' fold fits from several starts most of the rest). A
-    start behind after its heat is not always the worse one at the end, though: at a third the
-    held-out sets fell by one run each, and the default share is 1 (no race).
+    or eligible: the heats). Starts of a fit that has several minima land in different
+    basins within a few iterations, and the rest of the budget only refines one: every start
+    running the whole budget spends free runs on basins it then throws away (the
+    friction-aware loop's starts and the drive limit's were 36 % of the timing run's work,
+    the effects' fold fits from several starts most of the rest). A start behind after its
+    heat is not always the worse one at the end, though: at a third the held-out sets fell
+    by one run each, and the default share is 1 (no race).
     """
     heat = max(1, min(max_iter, round(defaults().race_share * max_iter)))
     if len(fits) == 1:
