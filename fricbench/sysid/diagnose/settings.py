@@ -175,11 +175,12 @@ class DiagnoseSettings:
     race_share : float
         Closed-loop search and loop structure. Share of a fit's iterations every start runs
         before only the best heat (of each loop family, PID or cascade, in the friction-aware
-        fit) runs the rest, in the fits from several starts: the friction-aware loop's, the
-        drive limit's and the effects' fold fits (a race, successive halving with one round:
-        Jamieson & Talwalkar, AISTATS 2016; :func:`~fricbench.sysid.diagnose.models.race_fits`).
-        1, the default: no race, every start runs the whole budget. A third cuts the work of
-        ``diagnose_timing``'s run by 36 % (5,898 -> 3,788 free runs) and cost one run of each
+        fit) runs the rest, in the fits from several starts: the friction-aware loop's and the
+        effects' fold fits (the drive limit's: ``limit_race_share``). A race, successive
+        halving with one round (Jamieson & Talwalkar, AISTATS 2016;
+        :func:`~fricbench.sysid.diagnose.models.race_fits`). 1, the default: no race, every
+        start runs the whole budget. A third in these and the drive limit's fits cuts the work
+        of ``diagnose_timing``'s run by 36 % (5,898 -> 3,788 free runs) and cost one run of each
         held-out set (second simulator 81/102 against 82/102, third 106/112 against 107/112;
         docs/diagnosis_method.md): an option that trades accuracy for speed. Not tuned: a
         budget.
@@ -275,6 +276,13 @@ class DiagnoseSettings:
     limit_lowest_friction_sized : float
         Drive limit. Lowest drive limit of the second search, in units of the reference's
         largest acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
+    limit_race_share : float
+        Drive limit. Share of the drive limit's fits' iterations every start runs before only
+        the best heat runs the rest (``race_share`` for these fits: their starts differ in the
+        clip's level and the friction, and a heat tells the basins apart). Not tuned: a third
+        is successive halving's usual rate (eta = 3; Li et al., JMLR 2018), the first value
+        tried; the held-out sets and the drive limit's tests as with the whole fits, the timing
+        run's drive limit 924 -> 552 free runs (docs/diagnosis_method.md).
     max_step : float
         Simulation. Longest plant integration step of the diagnosis's simulations, s. A
         stick-slip motion integrated with a fixed step meets each stop a fraction of a step
@@ -478,8 +486,7 @@ class DiagnoseSettings:
     quantum_multiples: tuple[int, ...] = _setting((1, 2, 3, 4), tuned=False, check=_COUNTS)
     loop_box: float = _setting(2.0, tuned=True, check=_AT_LEAST_1)
     trust_walks: int = _setting(3, tuned=False, check=_COUNT0)
-    race_share: float = _setting(1.0, tuned=False, check=(
-        "a share in (0, 1]", lambda v: _real(v) and 0.0 < v <= 1.0))
+    race_share: float = _setting(1.0, tuned=False, check=_SHARE)
 
     # -- the loop structure: rate, law, PID or cascade, delay, effort or position mode ----------
     loop_ts: float = _setting(1e-3, tuned=False, check=_POSITIVE)
@@ -508,6 +515,7 @@ class DiagnoseSettings:
     limit_start_headroom: tuple[float, ...] = _setting((1.2, 1.5, 3.0), tuned=True,
                                                       check=_POSITIVES)
     limit_lowest_friction_sized: float = _setting(0.1, tuned=True, check=_POSITIVE)
+    limit_race_share: float = _setting(1.0 / 3.0, tuned=False, check=_SHARE)
 
     # -- the simulations -------------------------------------------------------------------------
     max_step: float = _setting(1e-3, tuned=True, check=_POSITIVE)
