@@ -212,7 +212,7 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     # slides on enough rows; fitting its stuck rows would fit the integral's wind-up against
     # the static friction (a Stribeck run sliding on 16 % of its rows: effort error 83 % with
     # every row, 3 % and the true mass, damping and Coulomb level on the sliding ones)
-    if n_sliding < cfg.few_sliding_share * n_dec and n_sliding < cfg.min_sliding_rows:
+    if n_sliding < cfg.min_sliding_rows:
         prep.sliding_dec = np.ones(n_dec, dtype=bool)
     if sat is not None:
         # a clipped effort is the drive's limit, not the force the law asked for: the rows it

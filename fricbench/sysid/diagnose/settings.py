@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 35 today; the one-method issue's target is at most 15.**
+**Tuned values: 34 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -297,9 +297,10 @@ class DiagnoseSettings:
         stick-slip integration needs.
     min_sliding_rows : int
         Simulation. Decimated rows away from rest that are enough for the inverse dynamics (30
-        per fold), however small a share of the run they are; below this count and below a
-        fifth of the run (``few_sliding_share``), every row is used. Tuned on the second
-        simulator's tuning seeds (commit 0eb1f7b).
+        per fold), however small a share of the run they are; below this count every row is
+        used (a second condition, below a fifth of the run too, ``few_sliding_share``, tuned,
+        was retired: docs/diagnosis_method.md). Tuned on the second simulator's tuning seeds
+        (commit 0eb1f7b).
     rest_speed_share : float
         Inverse dynamics. A sample is at rest when its filtered speed is below this share of
         the largest reference speed; rows at or near rest stay out of the inverse dynamics
@@ -311,11 +312,6 @@ class DiagnoseSettings:
         Inverse dynamics. A decimated row is at rest when at least this share of it (its rest
         indicator through the decimation filter) is. Tuned: set by hand with the first search
         (commit 90b5a80); written inline until it became a field.
-    few_sliding_share : float
-        Inverse dynamics. Sliding rows fewer than ``min_sliding_rows`` and fewer than this share
-        of the rows are too few: every row is used. Tuned on the second simulator's tuning
-        seeds with ``min_sliding_rows`` (commit 0eb1f7b); written inline until it became a
-        field.
     clipped_row_share : float
         Inverse dynamics. A decimated row that a clipped effort touches by at least this share
         (through the decimation filter's spread) stays out of the friction fit: a clipped
@@ -524,7 +520,6 @@ class DiagnoseSettings:
     min_sliding_rows: int = _setting(60, tuned=True, check=_COUNT0)
     rest_speed_share: float = _setting(0.02, tuned=True, check=_SHARE_OPEN)
     rest_row_share: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
-    few_sliding_share: float = _setting(0.2, tuned=True, check=_SHARE_OPEN)
     clipped_row_share: float = _setting(0.01, tuned=True, check=_SHARE_OPEN)
     unstable_factor: float = _setting(10.0, tuned=False, check=_POSITIVE)
 
