@@ -345,7 +345,7 @@ def test_starts_that_race_spend_the_budget_on_the_best_heat(monkeypatch) -> None
     budget, only the best heat runs the rest, from where it ended (the same numbers as going
     on by hand), and ends as low as the best of the three whole fits; one finalist per
     family; a single start, or a race share of 1 (the default), is the whole fit, bit for
-    bit."""
+    bit; a share the caller passes races whatever the setting."""
     from dataclasses import replace
 
     from fricbench.sysid.diagnose import settings as S
@@ -389,6 +389,11 @@ def test_starts_that_race_spend_the_budget_on_the_best_heat(monkeypatch) -> None
     every = race_fits([(fit, st) for st in starts], 6)
     for r, w in zip(every, whole, strict=True):
         assert r is not None and r.cost == w.cost
+    # a share passed by the caller (the drive limit's, settings.limit_race_share) races
+    # whatever settings.race_share says
+    passed = race_fits([(fit, st) for st in starts], 6, share=1.0 / 3.0)
+    assert [r is None for r in passed] == [r is None for r in raced]
+    assert passed[winner].cost == raced[winner].cost
 
 def test_a_period_off_by_more_than_its_trust_region_walks_to_the_truth():
     """A cogging period started 6 % long: the fit's period moves 2 % at a time (a trust
