@@ -12,14 +12,14 @@ from fricbench.sysid.io import RunData, validate_arrays
 
 @pytest.mark.parametrize("ts", [1e-4, 5e-4, 1e-3, 2e-3, 4e-3, 0.01, 0.0125, 0.05])
 @pytest.mark.parametrize("n_loop", [1, 2, 10])
-def test_the_step_is_at_most_max_step_and_no_finer_than_it_needs(ts: float, n_loop: int
-                                                                  ) -> None:
+def test_the_step_is_at_most_the_drives_loop_period_and_no_finer_than_it_needs(
+        ts: float, n_loop: int) -> None:
     k = substeps(ts, n_loop)
     assert k >= DEFAULT_SETTINGS.n_sub_min
     h = ts / n_loop / k
-    assert h <= DEFAULT_SETTINGS.max_step * (1 + 1e-9)
+    assert h <= DEFAULT_SETTINGS.loop_ts * (1 + 1e-9)
     # one substep fewer would break the step, unless the floor of settings.n_sub_min set it
-    assert k == DEFAULT_SETTINGS.n_sub_min or ts / n_loop / (k - 1) > DEFAULT_SETTINGS.max_step
+    assert k == DEFAULT_SETTINGS.n_sub_min or ts / n_loop / (k - 1) > DEFAULT_SETTINGS.loop_ts
 
 
 def test_a_1_khz_log_keeps_two_substeps_and_a_100_hz_log_gets_ten() -> None:

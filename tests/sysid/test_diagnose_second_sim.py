@@ -842,7 +842,7 @@ def test_a_slow_stick_slip_log_is_integrated_finely_enough_to_show_its_stiction(
 
     case = S.draw_case("stribeck", 15)
     prep = C.position_only(case, str(tmp_path))
-    assert prep.ts / prep.n_sub <= DEFAULT_SETTINGS.max_step < prep.ts / 2  # type: ignore[attr-defined]
+    assert prep.ts / prep.n_sub <= DEFAULT_SETTINGS.loop_ts < prep.ts / 2
     outcome = C.diagnose_case(case, str(tmp_path))
     assert outcome.ok, f"{C.format_row(outcome)}\n{outcome.stderr[-2000:]}"
     report = outcome.report

@@ -29,9 +29,10 @@ __all__ = ["Prepared", "prepare", "substeps"]
 def substeps(ts: float, n_loop: int = 1, max_step: float | None = None) -> int:
     """Plant substeps per loop period for a log sampled every ``ts`` seconds whose loop runs
     ``n_loop`` times per sample: enough for a step of at most ``max_step`` (s; default
-    ``settings.max_step``), and never fewer than ``settings.n_sub_min``."""
+    ``settings.loop_ts``, the drive's own loop period), and never fewer than
+    ``settings.n_sub_min``."""
     if max_step is None:
-        max_step = defaults().max_step
+        max_step = defaults().loop_ts
     loop_ts = float(ts) / max(int(n_loop), 1)
     # a sample time read from a time column carries rounding: 10.000001 steps are 10
     return max(defaults().n_sub_min, math.ceil(loop_ts / max_step - 1e-6))

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 34 today; the one-method issue's target is at most 15.**
+**Tuned values: 33 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -187,7 +187,13 @@ class DiagnoseSettings:
     loop_ts : float
         Loop structure. Period of the model's loop when the log is slower, s: drives close
         their position loop at 1 kHz or faster, and a loop simulated at a 100 Hz log's rate
-        cannot reproduce one. Not tuned: physics of drives.
+        cannot reproduce one. It is also the longest plant integration step of the diagnosis's
+        simulations (:func:`~fricbench.sysid.diagnose.prepared.substeps`): the plant is
+        integrated at least as finely as the drive's own loop runs, whatever the log's rate
+        (a stick-slip motion integrated with a fixed step meets each stop a fraction of a step
+        late: a 5 ms step of a 100 Hz log hid the stiction of two of the second simulator's
+        runs, commit 4374fd1; that step was a field of its own, ``max_step``, tuned to the
+        same 1 ms there). Not tuned: physics of drives.
     law_exact_pct : float
         Loop structure. A law identified from the effort within this relative error, %, is the
         controller's own and is kept without the comparison of the modes (drives logged
@@ -283,11 +289,6 @@ class DiagnoseSettings:
         is successive halving's usual rate (eta = 3; Li et al., JMLR 2018), the first value
         tried; the held-out sets and the drive limit's tests as with the whole fits, the timing
         run's drive limit 924 -> 552 free runs (docs/diagnosis_method.md).
-    max_step : float
-        Simulation. Longest plant integration step of the diagnosis's simulations, s. A
-        stick-slip motion integrated with a fixed step meets each stop a fraction of a step
-        late; a finer step everywhere moved the PID loops fitted with friction. Tuned on the
-        second simulator's tuning seeds (commit 4374fd1).
     effort_max_step : float
         Simulation. Longest plant integration step of the effort's diagnosis, s: its free runs
         only judge forces fitted by inverse dynamics, and a coarse step blames the friction for
@@ -514,7 +515,6 @@ class DiagnoseSettings:
     limit_race_share: float = _setting(1.0 / 3.0, tuned=False, check=_SHARE)
 
     # -- the simulations -------------------------------------------------------------------------
-    max_step: float = _setting(1e-3, tuned=True, check=_POSITIVE)
     effort_max_step: float = _setting(1e-4, tuned=True, check=_POSITIVE)
     n_sub_min: int = _setting(2, tuned=False, check=_COUNT)
     min_sliding_rows: int = _setting(60, tuned=True, check=_COUNT0)
