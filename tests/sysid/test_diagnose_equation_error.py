@@ -156,21 +156,53 @@ def test_a_cascade_keeps_its_velocity_integral() -> None:
     coefficients exactly (random gains); with ``kvff = 1`` it is the PID it then is
     (``kp' = kp + ki``, ``kpi = ki kp``)."""
     from fricbench.sysid.diagnose.equation_error import _law
-    from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 
     rng = np.random.default_rng(12)
     for _ in range(20):
         wv, kp, ki = rng.uniform(20, 400), rng.uniform(5, 80), rng.uniform(1, 60)
         kaff, pole = rng.uniform(0, 1.2), rng.uniform(0, 0.9)
-        kvff = 1.0 + rng.choice([-1, 1]) * rng.uniform(2 * DEFAULT_SETTINGS.ki_kvff_min, 0.5)
+        kvff = 1.0 + rng.choice([-1, 1]) * rng.uniform(0.04, 0.5)
         coef = np.array([wv * (kp + ki), wv * kvff, wv, wv * ki * kp, kaff, 0.3,
                          wv * ki * (kvff - 1.0)])
-        got = _law(coef, pole)
+        got = _law(coef, pole, True)
         for name, want in (("wv", wv), ("kp", kp), ("ki", ki), ("kvff", kvff),
                            ("kaff", kaff), ("vel_pole", pole)):
             assert getattr(got, name) == pytest.approx(want, rel=1e-9), name
         assert got.kpi == pytest.approx(0.0, abs=1e-9 * wv)
-        pid = _law(np.array([wv * (kp + ki), wv, wv, wv * ki * kp, kaff, 0.3, 0.0]), pole)
+        pid = _law(np.array([wv * (kp + ki), wv, wv, wv * ki * kp, kaff, 0.3, 0.0]), pole,
+                   True)
         assert pid.ki == 0.0 and pid.is_pid
         assert pid.kp == pytest.approx(kp + ki) and pid.kpi == pytest.approx(ki * kp)
 
+
+
+def test_a_feedforward_is_told_from_1_by_its_standard_deviation() -> None:
+    """The velocity integral's rate is read from the regression only when ``wv (kvff - 1)``
+    lies beyond ``settings.detection_sd`` standard deviations of zero: a law whose two
+    velocity columns carry the same coefficient is a PID however the noise moves them, one
+    whose feedforward differs by 10 % is not; white or correlated noise alike (the deviation
+    is inflated by the residual's correlation)."""
+    from fricbench.sysid.diagnose.equation_error import _feedforward_detected
+    from fricbench.sysid.diagnose.leastsq import solve_ls
+
+    rng = np.random.default_rng(3)
+    n = 4000
+    false_calls = 0
+    for trial in range(40):
+        X = rng.normal(size=(n, 7))
+        X[:, 2] = -(X[:, 1] + 0.3 * rng.normal(size=n))  # the velocity follows its reference
+        noise = rng.normal(size=n)
+        if trial % 2:
+            noise = np.convolve(noise, np.ones(20) / 20, mode="same")  # correlated
+        for kvff, want in ((1.0, False), (1.1, True)):
+            wv = 50.0
+            true = np.array([30.0, wv * kvff, wv, 4.0, 0.5, 0.1, 2.0])
+            y = X @ true + 0.5 * noise
+            coef = solve_ls(X, y)
+            got = _feedforward_detected(X, y, coef)
+            if want:
+                assert got, (trial, kvff)
+            else:
+                false_calls += got
+    # two standard deviations: about 5 % of the runs with kvff = 1 cross it by chance
+    assert false_calls <= 6

@@ -32,6 +32,7 @@ from scipy import signal
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController
+from fricbench.sysid.diagnose.criterion import effective_samples
 from fricbench.sysid.diagnose.leastsq import solve_ls, sumsq
 from fricbench.sysid.diagnose.models import GreyBox
 from fricbench.sysid.diagnose.parameters import Bounds
@@ -107,15 +108,41 @@ def _command(ctrl: CascadeController, cols: dict[str, np.ndarray], steps: float,
     return ctrl.wv * (e_v + integral) + ctrl.kaff * cols["ar"]
 
 
-def _law(coef: np.ndarray, pole: float) -> CascadeController:
+def _feedforward_detected(X: np.ndarray, lhs: np.ndarray, coef: np.ndarray) -> bool:
+    """Whether the regression tells the velocity feedforward from 1: ``wv (kvff - 1)``, the
+    difference of the coefficients of columns 1 and 2, lies more than
+    ``settings.detection_sd`` standard deviations from zero.
+
+    The standard deviation is the least-squares one (``s^2 (X'X)^-1``, the columns scaled,
+    collinear directions dropped) inflated by the residual's correlation (``n / n_eff``,
+    :func:`~fricbench.sysid.diagnose.criterion.effective_samples`), as the effects' sizes
+    are judged (Ljung 1999, section 9.6). Only then is the velocity integral's rate, which
+    the regression holds as ``wv ki (kvff - 1)``, read from it."""
+    cfg = defaults()
+    r = lhs - X @ coef
+    n, p = X.shape
+    if n <= p:
+        return False
+    s2 = sumsq(r) / (n - p) * n / effective_samples(r, cfg.max_lag_share)
+    norm = np.sqrt(np.einsum("ij,ij->j", X, X))
+    norm = np.where(norm > 0.0, norm, 1.0)
+    g = np.zeros(p)
+    g[1], g[2] = 1.0 / norm[1], -1.0 / norm[2]
+    gram = (X / norm).T @ (X / norm)
+    var = s2 * float(g @ np.linalg.pinv(gram, rcond=1e-12, hermitian=True) @ g)
+    diff = float(coef[1] - coef[2])
+    return bool(np.isfinite(var) and abs(diff) > cfg.detection_sd * math.sqrt(max(var, 0.0)))
+
+
+def _law(coef: np.ndarray, pole: float, cascade: bool) -> CascadeController:
     """The law of one regression's coefficients (``wv kp'``, ``wv kvff``, ``wv``,
     ``wv (ki kp + kpi)``, ``kaff``, the integral's start, ``wv ki (kvff - 1)``; ``kp' = kp +
     ki``, the velocity integral acting like a position gain on the error). A cascade with
-    the velocity PI's integral when the feedforward is far enough from 1 and the gains come
-    out positive, else a PID."""
+    the velocity PI's integral when ``cascade`` (the feedforward told from 1,
+    :func:`_feedforward_detected`) and the gains come out positive, else a PID."""
     wv = float(coef[2])
     kp_all, kvff, k_se = float(coef[0]) / wv, float(coef[1]) / wv, float(coef[3]) / wv
-    if abs(kvff - 1.0) >= defaults().ki_kvff_min:
+    if cascade and kvff != 1.0:
         ki = float(coef[6]) / (wv * (kvff - 1.0))
         kp = kp_all - ki
         if ki > 0.0 and kp > 0.0:
@@ -254,7 +281,7 @@ def loop_by_equation_error(prep: Prepared, b: Bounds, effects: Sequence[str] = _
             rel = math.sqrt(sumsq(lhs - X @ coef) / max(sumsq(lhs), 1e-300))
             if d in best and best[d][0] <= rel:
                 continue
-            best[d] = (rel, _law(coef, pole), steps)
+            best[d] = (rel, _law(coef, pole, _feedforward_detected(X, lhs, coef)), steps)
     out: list[EquationErrorFit] = []
     for d, (rel, ctrl, steps) in sorted(best.items(), key=lambda kv: kv[1][0])[:n_best]:
         row = _plant_by_equation_error(prep, b, _command(ctrl, cols, steps, ts), d, effects,

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 32 today; the one-method issue's target is at most 15.**
+**Tuned values: 31 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -230,10 +230,6 @@ class DiagnoseSettings:
         rate (a 10 ms delay of a 100 Hz log lost its friction on the second simulator's tuning
         seeds; this was a field of its own, ``max_delay_s``, set to 3 ms in commit 954e7eb).
         Not tuned: a grid.
-    ki_kvff_min : float
-        Loop structure. Smallest ``|kvff - 1|`` from which the velocity integral's rate ``ki``
-        is read off the equation error's regression (nearer 1 the law is taken for a PID).
-        Tuned on the second simulator's tuning seeds (commit 0400414).
     ki_min_ratio : float
         Loop structure. Smallest integral rate of the cascade model, as a fraction of the
         velocity-loop gain. Tuned: set by hand with the first search (commit 90b5a80).
@@ -495,7 +491,6 @@ class DiagnoseSettings:
     filter_steps: tuple[float, ...] = _setting((0.0, 0.5, 1.0, 2.0, 4.0, 8.0), tuned=False,
                                                check=_NONNEGS)
     delay_steps: tuple[int, ...] = _setting((0, 1, 2, 3), tuned=False, check=_COUNTS0)
-    ki_kvff_min: float = _setting(0.02, tuned=True, check=_POSITIVE)
     ki_min_ratio: float = _setting(0.02, tuned=True, check=_POSITIVE)
     pid_kpi_min_ratio: float = _setting(1.0e-3, tuned=True, check=_POSITIVE)
     no_filter_share: float = _setting(0.01, tuned=False, check=_NONNEG)
