@@ -211,7 +211,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     :func:`friction_aware_fit`) with the limit at 1 and 2 times the reference's largest
     acceleration (a drive sized for the motion), and from the best ``n_best`` of a grid: the
     standard loops of both families and ``fit``'s with a Coulomb force of
-    ``settings.friction_starts`` and a limit of ``settings.limit_starts`` times that
+    ``settings.friction_starts`` and a limit of ``settings.limit_start_level`` times that
     acceleration, the limit bounded below by ``settings.limit_lowest`` of it. A drive that clips
     against a friction as large as the motion's own acceleration lags so far that a fit without
     a limit finds no friction at all (the loop alone explains more): ``fit`` is then no start
@@ -222,7 +222,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
 
     When no such limit is kept, a drive sized for its friction rather than for the motion is
     searched: the grid of Coulomb forces (``settings.friction_starts``, and ``fit``'s
-    own) with limits a little above each (``settings.limit_starts``), the limit bounded
+    own) with limits a little above each (``settings.limit_start_headroom``), the limit bounded
     below by ``settings.limit_lowest_friction_sized`` of the acceleration, on ``fit``'s loop and
     the ``n_best`` standard loops that rank best with one pair, the friction ``fit`` found (else
     the largest level) at the lowest headroom (the grid ranks starts in two stages, not every
@@ -239,7 +239,7 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None, None
     cfg = defaults()
-    motion = [(f_fc, f_lim) for f_fc in cfg.friction_starts for f_lim in cfg.limit_starts]
+    motion = [(f_fc, f_lim) for f_fc in cfg.friction_starts for f_lim in cfg.limit_start_level]
     loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
              + list(starting_pid_controllers(prep.inputs.loop_ts)))
     first, _ = _fit_limit(fit, prep, bounds, a_ref, motion, cfg.limit_lowest, (1.0, 2.0),
@@ -255,14 +255,14 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     fitted = (float(fit.model.plant[CL.I_FC]) / a_ref
               if "coulomb_friction" in fit.model.effects else 0.0)
     levels = sorted({*cfg.friction_starts, *([fitted] if fitted > 0.0 else [])})
-    friction = [(f_fc, h * f_fc) for f_fc in levels for h in cfg.limit_starts]
+    friction = [(f_fc, h * f_fc) for f_fc in levels for h in cfg.limit_start_headroom]
     # its grid of starts in two stages: every loop with the friction fitted without a limit
     # (else the largest level) and the lowest headroom, then every pair on the loops that
     # ranked best there (every loop with every pair, 588 free runs, was three quarters of
     # this function's 6.3 s on diagnose_timing's 40,000-sample run)
     probe = fitted if fitted > 0.0 else levels[-1]
     _, ranked = _fit_limit(fit, prep, bounds, a_ref,
-                           [(probe, min(cfg.limit_starts) * probe)],
+                           [(probe, min(cfg.limit_start_headroom) * probe)],
                            cfg.limit_lowest_friction_sized, (), max_iter, 0, loops)
     second, _ = _fit_limit(fit, prep, bounds, a_ref, friction,
                            cfg.limit_lowest_friction_sized, (), max_iter, n_best,

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 31 today; the one-method issue's target is at most 15.**
+**Tuned values: 32 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -264,16 +264,17 @@ class DiagnoseSettings:
     limit_min_clipped : float
         Drive limit. Share of the samples the identified limit must clip (a limit that never
         acts is none). Tuned on the second simulator's tuning seeds (commit aa3670a).
-    limit_starts : tuple of float
-        Drive limit. Limits of the starts of both searches: in units of the reference's largest
-        acceleration in the first (a drive sized for the motion), of each start's Coulomb force
-        in the second (a drive sized for its friction; the lowest also ranks its loops). Tuned
-        on the second simulator: (1.5, 3.0) for the first search (commit 123fae0); the second
-        had its own grid, (1.2, 1.5, 3.0) (``limit_start_headroom``, commit 848e47a), until
-        one grid served both (the held-out sets every row as before; docs/diagnosis_method.md).
+    limit_start_level : tuple of float
+        Drive limit. Limits of the first search's grid of starts (a drive sized for the
+        motion), in units of the reference's largest acceleration. Tuned on the second
+        simulator (commit 123fae0).
     limit_lowest : float
         Drive limit. Lowest drive limit fitted, in units of the reference's largest
         acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
+    limit_start_headroom : tuple of float
+        Drive limit. Limits of the second grid (a drive sized for its friction), in units of
+        each start's Coulomb force. Tuned on the second simulator's tuning seeds (commit
+        848e47a).
     limit_lowest_friction_sized : float
         Drive limit. Lowest drive limit of the second search, in units of the reference's
         largest acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
@@ -501,8 +502,10 @@ class DiagnoseSettings:
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
     limit_min_clipped: float = _setting(0.005, tuned=True, check=_NONNEG)
-    limit_starts: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
+    limit_start_level: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
     limit_lowest: float = _setting(0.5, tuned=True, check=_POSITIVE)
+    limit_start_headroom: tuple[float, ...] = _setting((1.2, 1.5, 3.0), tuned=True,
+                                                      check=_POSITIVES)
     limit_lowest_friction_sized: float = _setting(0.1, tuned=True, check=_POSITIVE)
     limit_race_share: float = _setting(1.0 / 3.0, tuned=False, check=_SHARE)
 
