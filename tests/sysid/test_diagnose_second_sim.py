@@ -881,7 +881,7 @@ def test_the_effort_diagnosis_judges_its_forces_with_a_finer_step(
         result.prep.inputs.loop_ts / result.prep.n_sub)
     alone = D.diagnose(replace(run, u=None))  # type: ignore[type-var]
     step = alone.prep.inputs.loop_ts / alone.prep.n_sub
-    assert DEFAULT_SETTINGS.effort_max_step < step <= DEFAULT_SETTINGS.max_step
+    assert DEFAULT_SETTINGS.effort_max_step < step <= DEFAULT_SETTINGS.loop_ts
 
 
 @pytest.mark.xfail(strict=True, reason=(
