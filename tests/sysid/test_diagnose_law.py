@@ -271,3 +271,32 @@ def test_a_clipping_cascade_is_run_with_its_velocity_integral_held(tmp_path) -> 
     assert n >= 10
     assert cascade_best >= 2 * n / 3, (cascade_best, n)
     assert chosen_close >= 2 * n / 3, (chosen_close, n)
+
+
+def test_an_effort_the_law_leaves_is_injected_only_where_it_drives_the_axis(tmp_path) -> None:
+    """What the identified law leaves of the logged effort is fed to the free runs when it
+    brings them closer to the measured position (test pulses the drive added), not because it
+    is large: noise on the effort's log alone (the current sensor's) leaves a tenth of the
+    effort unexplained, moves no axis, and is not injected."""
+    import dataclasses
+
+    from fricbench.sysid.diagnose.diagnosis import _injected
+
+    case, prep = _case("pid", 106, tmp_path)
+    model = GreyBox(fit_law(prep), _true_plant(case), effects=("coulomb_friction",))
+    assert prep.u is not None
+    rng = np.random.default_rng(0)
+    noisy = dataclasses.replace(
+        prep, u=prep.u + 0.15 * float(np.std(prep.u)) * rng.standard_normal(prep.u.shape))
+    w, share, used = _injected(model, noisy)
+    assert share is not None and share > 0.05  # a share-of-the-effort rule injected it
+    assert not used and w is None
+    # pulses that act on the axis: the model's own run with them is the measured one
+    pulses = np.zeros_like(prep.u)
+    for k in range(prep.u.shape[0] // 10, prep.u.shape[0], prep.u.shape[0] // 5):
+        pulses[k:k + 50] = 0.5 * float(np.max(np.abs(prep.u)))
+    y, u = simulate_position(model, prep, pulses)
+    assert np.all(np.isfinite(y))
+    driven = dataclasses.replace(prep, x=y, u=u)
+    w, share, used = _injected(model, driven)
+    assert used and w is not None

@@ -35,6 +35,7 @@ from fricbench.sysid.diagnose.criterion import (
     profile_statistic,
 )
 from fricbench.sysid.diagnose.effects import describe_parameters, get_effect
+from fricbench.sysid.diagnose.leastsq import sumsq
 from fricbench.sysid.diagnose.models import (
     GreyBox,
     InverseDynamics,
@@ -428,8 +429,13 @@ def _sensor_disturbance(prep: Prepared, search_floor: float, y_after: np.ndarray
     return lines, math.hypot(search_floor, disturbance)
 
 
-def _injected(ctrl: ArxController | CascadeController, prep: Prepared
-              ) -> tuple[np.ndarray | None, float | None, bool]:
+def _injected(model: GreyBox, prep: Prepared) -> tuple[np.ndarray | None, float | None, bool]:
+    """The effort ``model``'s identified law leaves unexplained on ``prep`` (test pulses, a
+    feedback the log does not hold), its rms share of the effort, and whether it is fed to
+    the free runs as an injected input: when ``model``'s free run with it is closer to the
+    measured position than without it (the two runs have the same parameters, so the
+    criterion is their squared errors). None, None, False without an effort or a law."""
+    ctrl = model.controller
     if prep.u is None or not isinstance(ctrl, ArxController):
         return None, None, False
     inp = prep.inputs
@@ -439,7 +445,8 @@ def _injected(ctrl: ArxController | CascadeController, prep: Prepared
     n_edge = defaults().law_edge
     edge = slice(n_edge, -n_edge) if w.shape[0] > 4 * n_edge else slice(None)
     share = float(np.sqrt(np.mean(w[edge]**2)) / max(np.sqrt(np.mean(prep.u[edge]**2)), 1e-300))
-    use = share > defaults().injected_effort_share
+    sse = [sumsq(prep.x - simulate_position(model, prep, v)[0]) for v in (w, None)]
+    use = bool(np.isfinite(sse[0]) and not sse[1] <= sse[0])
     return (w if use else None), share, use
 
 
@@ -455,7 +462,7 @@ def _on_run(model: GreyBox, prep: Prepared, law: ArxController | None) -> GreyBo
 def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
               law: ArxController | None = None) -> RunEvaluation:
     linear, final = _on_run(linear, prep, law), _on_run(final, prep, law)
-    w, share, used = _injected(final.controller, prep)
+    w, share, used = _injected(final, prep)
     y_before, _ = simulate_position(linear, prep, w)
     y_after, _ = simulate_position(final, prep, w)
     eb = ea = sb = sa = None
@@ -956,7 +963,7 @@ def _profile_statistics(final: GreyBox, names: list[str], fit: _ModeFit, n_eff: 
     if not names:
         return {}
     assert fit.bounds is not None
-    w = _injected(final.controller, fit.prep)[0]
+    w = _injected(final, fit.prep)[0]
     fits = run_concurrently([
         partial(PositionFit(fit.prep, position_params(m, fit.bounds, controller=True,
                                                       effects=list(m.effects)), None, w).run,
@@ -1051,7 +1058,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
             # the effort's free runs judge its forces at a finer step (see settings.effort_max_step)
             prep = dataclasses.replace(prep, n_sub=max(prep.n_sub, substeps(
                 prep.inputs.loop_ts, 1, max_step=settings.effort_max_step)))
-            w, share, used = _injected(linear.controller, prep)
+            w, share, used = _injected(linear, prep)
             y_lin, _ = simulate_position(linear, prep, w)
             why = _law_unusable(prep, y_lin)
             prep_pos = prepare(dataclasses.replace(run, u=None), cutoff_hz=cutoff_hz, decim=decim,
@@ -1097,7 +1104,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
             break
         final = fit.search.final.model
         uncertainty = model_uncertainty(final, fit.prep, fit.bounds,
-                                        _injected(final.controller, fit.prep)[0],
+                                        _injected(final, fit.prep)[0],
                                         force_unit=fit.force_unit, settings=search_settings)
         # an effect another one needs (Coulomb friction under a Stribeck hump) stays with it
         needed = {r for e in final.effects for r in get_effect(e).requires}
@@ -1206,7 +1213,7 @@ def diagnose(run: RunData, *, validate: RunData | None = None, force_unit: str =
                      "was sought")
     if uncertainty is None and fit.bounds is not None and fit.finite:
         uncertainty = model_uncertainty(final, prep, fit.bounds,
-                                        _injected(final.controller, prep)[0], force_unit=fu,
+                                        _injected(final, prep)[0], force_unit=fu,
                                         settings=search_settings)
     if uncertainty is not None:
         # what stays although within its uncertainty: an effect another one needs

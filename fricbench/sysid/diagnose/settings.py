@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 32 today; the one-method issue's target is at most 15.**
+**Tuned values: 31 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -208,11 +208,6 @@ class DiagnoseSettings:
         Loop structure. Samples at each end of a run outside the identified law's reach (its
         history), left out of the share of the effort the law leaves. Not tuned: a convention
         above the laws' orders.
-    injected_effort_share : float
-        Loop structure. Share of the effort (rms) the controller law must leave unexplained
-        before the remainder is treated as an injected input (test pulses) in free-run
-        simulations: EMPS's pulse run leaves 13 %, a logged position that is not the
-        controller's own feedback a few per cent. Tuned on EMPS (commit 90b5a80).
     delay_gain : float
         Loop structure. A command delay is given to the effort's loop when its free run with a
         Coulomb force leaves less than this share of the squared position error the loop
@@ -487,7 +482,6 @@ class DiagnoseSettings:
     law_prefilters: tuple[float | None, ...] = _setting((None, 1 / 4, 1 / 8, 1 / 16, 1 / 32),
                                                         tuned=False, check=_PREFILTERS)
     law_edge: int = _setting(8, tuned=False, check=_COUNT0)
-    injected_effort_share: float = _setting(0.05, tuned=True, check=_NONNEG)
     delay_gain: float = _setting(0.8, tuned=True, check=_POSITIVE)
     filter_steps: tuple[float, ...] = _setting((0.0, 0.5, 1.0, 2.0, 4.0, 8.0), tuned=False,
                                                check=_NONNEGS)
