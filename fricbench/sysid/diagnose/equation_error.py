@@ -32,7 +32,7 @@ from scipy import signal
 
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import CascadeController
-from fricbench.sysid.diagnose.criterion import effective_samples
+from fricbench.sysid.diagnose.criterion import effective_samples, parameter_covariance
 from fricbench.sysid.diagnose.leastsq import solve_ls, sumsq
 from fricbench.sysid.diagnose.models import GreyBox
 from fricbench.sysid.diagnose.parameters import Bounds
@@ -113,23 +113,17 @@ def _feedforward_detected(X: np.ndarray, lhs: np.ndarray, coef: np.ndarray) -> b
     difference of the coefficients of columns 1 and 2, lies more than
     ``settings.detection_sd`` standard deviations from zero.
 
-    The standard deviation is the least-squares one (``s^2 (X'X)^-1``, the columns scaled,
-    collinear directions dropped) inflated by the residual's correlation (``n / n_eff``,
-    :func:`~fricbench.sysid.diagnose.criterion.effective_samples`), as the effects' sizes
-    are judged (Ljung 1999, section 9.6). Only then is the velocity integral's rate, which
-    the regression holds as ``wv ki (kvff - 1)``, read from it."""
+    The standard deviation is the least-squares one inflated by the residual's correlation
+    (:func:`~fricbench.sysid.diagnose.criterion.parameter_covariance`, the regressors being
+    the residual's Jacobian; a direction the data do not determine is not detected), as the
+    effects' sizes are judged (Ljung 1999, section 9.6). Only then is the velocity integral's
+    rate, which the regression holds as ``wv ki (kvff - 1)``, read from it."""
     cfg = defaults()
     r = lhs - X @ coef
-    n, p = X.shape
-    if n <= p:
-        return False
-    s2 = sumsq(r) / (n - p) * n / effective_samples(r, cfg.max_lag_share)
-    norm = np.sqrt(np.einsum("ij,ij->j", X, X))
-    norm = np.where(norm > 0.0, norm, 1.0)
-    g = np.zeros(p)
-    g[1], g[2] = 1.0 / norm[1], -1.0 / norm[2]
-    gram = (X / norm).T @ (X / norm)
-    var = s2 * float(g @ np.linalg.pinv(gram, rcond=1e-12, hermitian=True) @ g)
+    cov = parameter_covariance(X, r, effective_samples(r, cfg.max_lag_share))
+    g = np.zeros(X.shape[1])
+    g[1], g[2] = 1.0, -1.0
+    var = float(g @ cov @ g)
     diff = float(coef[1] - coef[2])
     return bool(np.isfinite(var) and abs(diff) > cfg.detection_sd * math.sqrt(max(var, 0.0)))
 
