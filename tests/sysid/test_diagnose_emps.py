@@ -56,6 +56,16 @@ def test_emps_position_prediction_improves(emps_report):
     assert emps_report["validation"]["injected_effort_used"] is True
 
 
+def test_emps_says_why_the_training_runs_remainder_is_left_out(emps_report):
+    # the training run's law leaves a fraction of a percent (the current's noise): not fed to
+    # the free runs, and the report says so beside its share
+    share = emps_report["data"]["injected_effort_share_pct"]
+    assert 0.0 < share < 1.0
+    assert any(f"{share:.1f} % (rms) of the effort is not explained" in n
+               and "not fed to the simulations" in n for n in emps_report["notes"]), \
+        emps_report["notes"]
+
+
 def test_emps_steps_report_si_parameters_and_errors(emps_report):
     for step in emps_report["steps"]:
         assert set(step) >= {"effect", "parameters", "metrics"}
