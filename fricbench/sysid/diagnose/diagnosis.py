@@ -536,16 +536,14 @@ def _fit_effort(run: RunData, prep: Prepared, linear: GreyBox, idim: InverseDyna
         laws["train"] += (f"; the drive applies its command {delay} loop period"
                           f"{'s' if delay > 1 else ''} ({1e3 * delay * prep.inputs.loop_ts:.3g}"
                           " ms) after it is logged, found from the motion")
-    if used and share is not None:
-        notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
-                     "controller law; it is fed to the simulations as an injected input")
-    elif share is not None:
+    if share is not None:
         # said either way: a user reading injected_effort_share_pct should know why a
-        # remainder of any size was left out
+        # remainder of any size was fed or left out
+        fed = ("it is fed to the simulations as an injected input" if used else
+               "it is not fed to the simulations: the free run with it is no closer to the "
+               "measured position (noise on the logged effort, or what the law misses)")
         notes.append(f"{100 * share:.1f} % (rms) of the effort is not explained by the "
-                     "controller law; it is not fed to the simulations: the free run with it "
-                     "is no closer to the measured position (noise on the logged effort, or "
-                     "what the law misses)")
+                     f"controller law; {fed}")
     log(f"  linear position rms {_rms(prep.x - y_lin) * run.logged_unit.per_si:.4g} "
         f"{run.logged_unit.display} ({time.perf_counter() - t0:.1f} s)")
     search = forward_selection(linear, y_lin, prep, bounds, idim=idim, w=w, jac=None,
