@@ -57,7 +57,7 @@ def test_emps_position_prediction_improves(emps_report):
 
 
 def test_emps_says_why_the_training_runs_remainder_is_left_out(emps_report):
-    # the training run's law leaves a fraction of a percent (the current's noise): not fed to
+    # the training run's law leaves a fraction of a percent of the effort: not fed to
     # the free runs, and the report says so beside its share
     share = emps_report["data"]["injected_effort_share_pct"]
     assert 0.0 < share < 1.0
