@@ -147,6 +147,13 @@ class CaseResult:
         A traceback or a non-finite number in the report.
     elapsed : float
         Wall time of the command, s.
+    drive_limit : str or None
+        ``"reached"`` when the simulator drew a current limit the run reaches (the second
+        simulator's: one the run without it exceeds on 0.5-2 % of its samples), ``"none"``
+        otherwise; None when the simulator does not say.
+    command_delay : str or None
+        ``"none"`` or ``"1-3 periods"`` (the drive applies its command that many loop periods
+        late); None when the simulator does not say.
     """
 
     kind: str
@@ -160,6 +167,8 @@ class CaseResult:
     effort: str
     crashed: bool
     elapsed: float
+    drive_limit: str | None = None
+    command_delay: str | None = None
 
 
 def tuning_cases(extra: bool = True, sim: str = "second") -> list[tuple[str, int]]:
@@ -206,7 +215,9 @@ def diagnose_one(kind: str, seed: int, duration: float | None = None) -> CaseRes
     return CaseResult(kind=kind, seed=seed, present=sim.EFFECT_NAME[kind],
                       named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
                       law=var.law, log_rate="100Hz" if var.log_every > 1 else "1kHz",
-                      effort=var.effort or "none", crashed=crashed, elapsed=out.elapsed)
+                      effort=var.effort or "none", crashed=crashed, elapsed=out.elapsed,
+                      drive_limit="reached" if var.saturate else "none",
+                      command_delay="1-3 periods" if var.delay else "none")
 
 
 def diagnose_one_third(kind: str, seed: int, duration: float | None = None) -> CaseResult:
@@ -319,8 +330,15 @@ def summarise(results: Sequence[CaseResult], friction: frozenset[str]) -> Summar
         s.by_kind[r.kind][1] += 1
         for f in r.failures:
             s.why[r.kind][_reason(f)] += 1
-        for key in (f"law: {r.law}", f"log: {r.log_rate}",
-                    f"effort: {'logged' if r.effort != 'none' else 'not logged'}"):
+        keys = [f"law: {r.law}", f"log: {r.log_rate}",
+                f"effort: {'logged' if r.effort != 'none' else 'not logged'}"]
+        # a drive that clips and a delayed command are loop structures the diagnosis must
+        # identify too; the simulators that say so get a row each
+        if r.drive_limit is not None:
+            keys.append(f"drive limit: {r.drive_limit}")
+        if r.command_delay is not None:
+            keys.append(f"command delay: {r.command_delay}")
+        for key in keys:
             s.by_structure[key][0] += r.ok
             s.by_structure[key][1] += 1
     return s

@@ -6,6 +6,7 @@ counting and one real run of the command on a single case are checked.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -56,6 +57,27 @@ def test_summary_counts_found_missed_and_false_effects() -> None:
     assert s.false == {"backlash": 1, "cogging": 1}
     assert s.by_structure["law: pid"] == [0, 1]
     assert s.by_structure["law: cascade"] == [2, 3]
+    # a simulator that does not say whether the drive clips gets no such row
+    assert not any(k.startswith(("drive limit", "command delay")) for k in s.by_structure)
+
+
+def test_summary_counts_runs_by_drive_limit_and_command_delay() -> None:
+    friction = frozenset({"coulomb_friction"})
+    results = [
+        replace(_result("control", None, ("coulomb_friction",), True),
+                drive_limit="reached", command_delay="none"),
+        replace(_result("backlash", "backlash", ("coulomb_friction",), False),
+                drive_limit="reached", command_delay="1-3 periods"),
+        replace(_result("cogging", "cogging", ("coulomb_friction", "cogging"), True),
+                drive_limit="none", command_delay="1-3 periods"),
+    ]
+    s = A.summarise(results, friction)
+    assert s.by_structure["drive limit: reached"] == [1, 2]
+    assert s.by_structure["drive limit: none"] == [1, 1]
+    assert s.by_structure["command delay: none"] == [1, 1]
+    assert s.by_structure["command delay: 1-3 periods"] == [1, 2]
+    table = "\n".join(A._section("Held-out set", s))
+    assert "| drive limit: reached | 1 | 2 | 50.0 |" in table
 
 
 def test_command_writes_the_table_and_the_tuning_rows(tmp_path: Path,
