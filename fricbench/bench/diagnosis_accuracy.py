@@ -148,12 +148,14 @@ class CaseResult:
     elapsed : float
         Wall time of the command, s.
     drive_limit : str or None
-        ``"reached"`` when the simulator drew a current limit the run reaches (the second
-        simulator's: one the run without it exceeds on 0.5-2 % of its samples), ``"none"``
-        otherwise; None when the simulator does not say.
+        ``"reached"`` when the drive's command meets its limit: the second simulator's cases
+        drawn with one (a limit the run without it exceeds on 0.5-2 % of its samples), the
+        third simulator's runs whose command clipped at least once; ``"none"`` otherwise.
+        None when the simulator does not say.
     command_delay : str or None
-        ``"none"`` or ``"1-3 periods"`` (the drive applies its command that many loop periods
-        late); None when the simulator does not say.
+        ``"none"``, or the loop periods the drive applies its command late (``"1-3
+        periods"`` on the second simulator, ``"1 period"`` on the third); None when the
+        simulator does not say.
     """
 
     kind: str
@@ -232,7 +234,9 @@ def diagnose_one_third(kind: str, seed: int, duration: float | None = None) -> C
     return CaseResult(kind=kind, seed=seed, present=",".join(wanted) or None,
                       named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
                       law=case.family, log_rate=case.log_rate,
-                      effort=case.effort_unit or "none", crashed=crashed, elapsed=out.elapsed)
+                      effort=case.effort_unit or "none", crashed=crashed, elapsed=out.elapsed,
+                      drive_limit="reached" if bool(np.any(case.trace.clipped)) else "none",
+                      command_delay="1 period" if case.machine.delay else "none")
 
 
 def run_cases(cases: Sequence[tuple[str, int]], *, jobs: int = 2, backend: str = "joblib",
