@@ -148,10 +148,10 @@ class CaseResult:
     elapsed : float
         Wall time of the command, s.
     drive_limit : str or None
-        ``"reached"`` when the drive's command meets its limit: the second simulator's cases
-        drawn with one (a limit the run without it exceeds on 0.5-2 % of its samples), the
-        third simulator's runs whose command clipped at least once; ``"none"`` otherwise.
-        None when the simulator does not say.
+        ``"reached"`` when the drive's command clipped at its limit at least once in the run
+        (the simulator's own record), ``"none"`` otherwise (also a limit drawn that the run
+        never meets: a quarter of the second simulator's tuning cases drawn with one). None
+        when the simulator does not say.
     command_delay : str or None
         ``"none"``, or the loop periods the drive applies its command late (``"1-3
         periods"`` on the second simulator, ``"1 period"`` on the third); None when the
@@ -218,7 +218,7 @@ def diagnose_one(kind: str, seed: int, duration: float | None = None) -> CaseRes
                       named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
                       law=var.law, log_rate="100Hz" if var.log_every > 1 else "1kHz",
                       effort=var.effort or "none", crashed=crashed, elapsed=out.elapsed,
-                      drive_limit="reached" if var.saturate else "none",
+                      drive_limit="reached" if bool(np.any(case.trace.clipped)) else "none",
                       command_delay="1-3 periods" if var.delay else "none")
 
 
