@@ -206,6 +206,11 @@ def heldout_cases(n: int | None = None, sim: str = "second") -> list[tuple[str, 
     return [(kinds[i % len(kinds)], s) for i, s in enumerate(seeds)]
 
 
+def _drive_limit(clipped: np.ndarray) -> str:
+    """:attr:`CaseResult.drive_limit` of a run from the simulator's clip record."""
+    return "reached" if np.any(clipped) else "none"
+
+
 def diagnose_one(kind: str, seed: int, duration: float | None = None) -> CaseResult:
     """Draw the simulator's case ``kind``/``seed``, diagnose it and judge it."""
     sim, check = _sim_modules()
@@ -218,7 +223,7 @@ def diagnose_one(kind: str, seed: int, duration: float | None = None) -> CaseRes
                       named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
                       law=var.law, log_rate="100Hz" if var.log_every > 1 else "1kHz",
                       effort=var.effort or "none", crashed=crashed, elapsed=out.elapsed,
-                      drive_limit="reached" if bool(np.any(case.trace.clipped)) else "none",
+                      drive_limit=_drive_limit(case.trace.clipped),
                       command_delay="1-3 periods" if var.delay else "none")
 
 
@@ -235,7 +240,7 @@ def diagnose_one_third(kind: str, seed: int, duration: float | None = None) -> C
                       named=tuple(out.effects), ok=out.ok, failures=tuple(out.failures),
                       law=case.family, log_rate=case.log_rate,
                       effort=case.effort_unit or "none", crashed=crashed, elapsed=out.elapsed,
-                      drive_limit="reached" if bool(np.any(case.trace.clipped)) else "none",
+                      drive_limit=_drive_limit(case.trace.clipped),
                       command_delay="1 period" if case.machine.delay else "none")
 
 
