@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.controllers import LoopInputs
 from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.diagnose.signals import (
@@ -212,8 +213,12 @@ def prepare(run: RunData, *, cutoff_hz: float | None = None, decim: int | None =
     # an axis that sticks most of the run (a slow move under a large breakaway force) still
     # slides on enough rows; fitting its stuck rows would fit the integral's wind-up against
     # the static friction (a Stribeck run sliding on 16 % of its rows: effort error 83 % with
-    # every row, 3 % and the true mass, damping and Coulomb level on the sliding ones)
-    if n_sliding < cfg.min_sliding_rows:
+    # every row, 3 % and the true mass, damping and Coulomb level on the sliding ones).
+    # Enough: the rule of thumb's rows per parameter of the first model fitted to the effort
+    # (mass, damping, Coulomb level) in each fold of the inverse dynamics
+    first_fit = (CL.I_M, CL.I_B, CL.I_FC)
+    n_folds = int(np.unique(prep.folds_dec).size)
+    if n_sliding < cfg.rows_per_parameter * len(first_fit) * n_folds:
         prep.sliding_dec = np.ones(n_dec, dtype=bool)
     if sat is not None:
         # a clipped effort is the drive's limit, not the force the law asked for: the rows it

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 31 today; the one-method issue's target is at most 15.**
+**Tuned values: 30 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -287,12 +287,18 @@ class DiagnoseSettings:
     n_sub_min : int
         Simulation. Fewest plant substeps per loop period. Not tuned: the fewest a fixed-step
         stick-slip integration needs.
-    min_sliding_rows : int
-        Simulation. Decimated rows away from rest that are enough for the inverse dynamics (30
-        per fold), however small a share of the run they are; below this count every row is
-        used (a second condition, below a fifth of the run too, ``few_sliding_share``, tuned,
-        was retired: docs/diagnosis_method.md). Tuned on the second simulator's tuning seeds
-        (commit 0eb1f7b).
+    rows_per_parameter : int
+        Inverse dynamics. Rows a regression needs per parameter it fits: ten, the usual rule
+        of thumb (ten to twenty observations per parameter: Harrell, *Regression Modeling
+        Strategies*, 2nd ed. 2015, section 4.4; Peduzzi et al., *J. Clin. Epidemiol.* 49,
+        1996). Decimated rows away from rest are enough for the inverse dynamics when each of
+        its folds holds this many per parameter of the first model every run fits to the
+        effort (a mass, a damping and a Coulomb level): 60 rows in two folds, however small a
+        share of the run they are; below that every row is used. Not tuned: a convention. It
+        replaced ``min_sliding_rows``, tuned to the same 60 on the second simulator's tuning
+        seeds (commit 0eb1f7b; a second condition, below a fifth of the run too,
+        ``few_sliding_share``, was retired before: docs/diagnosis_method.md), so no number
+        changed.
     rest_speed_share : float
         Inverse dynamics. A sample is at rest when its filtered speed is below this share of
         the largest reference speed; rows at or near rest stay out of the inverse dynamics
@@ -506,7 +512,7 @@ class DiagnoseSettings:
     # -- the simulations -------------------------------------------------------------------------
     effort_max_step: float = _setting(1e-4, tuned=True, check=_POSITIVE)
     n_sub_min: int = _setting(2, tuned=False, check=_COUNT)
-    min_sliding_rows: int = _setting(60, tuned=True, check=_COUNT0)
+    rows_per_parameter: int = _setting(10, tuned=False, check=_COUNT0)
     rest_speed_share: float = _setting(0.02, tuned=True, check=_SHARE_OPEN)
     rest_row_share: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
     clipped_row_share: float = _setting(0.01, tuned=True, check=_SHARE_OPEN)
