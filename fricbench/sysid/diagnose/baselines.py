@@ -198,101 +198,99 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
 def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
                  max_iter: int = 15, n_best: int = 3
                  ) -> tuple[DriveLimit | None, DriveLimit | None]:
-    """The drive's command limit kept (or None), and else the best tentative one (or None).
-
-    A tentative limit clips at least ``settings.limit_min_clipped`` of the samples and leaves
-    less than the squared error without it, but not ``settings.limit_margin`` of it; the kept
-    one leaves less than that margin.
+    """The drive's command limit kept (or None), and else the tentative one (or None).
 
     A drive that clips its current (a rapid move, a reversal against friction) lags the
     reference in a way no linear loop with friction reproduces: without the effort nothing
     says it clipped. The loop, a Coulomb force and a limit on the loop's command are fitted
-    together from ``fit`` (the loop and a Coulomb force fitted without a limit,
-    :func:`friction_aware_fit`) with the limit at 1 and 2 times the reference's largest
-    acceleration (a drive sized for the motion), and from the best ``n_best`` of a grid: the
-    standard loops of both families and ``fit``'s with a Coulomb force of
-    ``settings.friction_starts`` and a limit of ``settings.limit_start_level`` times that
-    acceleration, the limit bounded below by ``settings.limit_lowest`` of it. A drive that clips
-    against a friction as large as the motion's own acceleration lags so far that a fit without
-    a limit finds no friction at all (the loop alone explains more): ``fit`` is then no start
-    for the limit. The limit is kept when the error falls below ``settings.limit_margin`` of the
-    error without it and the fitted loop clips at least ``settings.limit_min_clipped`` of the
-    samples. Like the loop gains it is a property of the loop the effects are then judged with,
-    not an effect.
+    together, and what the run shows of the limit is its headroom (:func:`limit_headroom`):
+    while the axis speeds up in the direction it moves, the drive delivers the acceleration,
+    the damping's force and the friction's, and a drive that clips delivers no more. The
+    clipped moves show the limit minus the friction far better than either (the second
+    simulator's control/5: fits as close with a limit and a friction both half the truth), so
+    each start is a Coulomb force with the limit the headroom above it: ``fit``'s own model
+    (the loop and a Coulomb force fitted without a limit, :func:`friction_aware_fit`), and for
+    each Coulomb force of ``settings.friction_starts`` (in units of the reference's largest
+    acceleration) and ``fit``'s, the best ``n_best`` of the standard loops of both families
+    and ``fit``'s (:func:`_fit_limit`). A drive that clips against a friction as large as the
+    motion's own acceleration lags so far that a fit without a limit finds no friction at all
+    (the loop alone explains more): ``fit``'s friction is then no start, the grid's are. The
+    limit is bounded below by the headroom itself, the largest acceleration the axis showed in
+    the direction it moved (the drive delivered at least that, the damping and the friction
+    opposing it).
 
-    When no such limit is kept, a drive sized for its friction rather than for the motion is
-    searched: the grid of Coulomb forces (``settings.friction_starts``, and ``fit``'s
-    own) with limits a little above each (``settings.limit_start_headroom``), the limit bounded
-    below by ``settings.limit_lowest_friction_sized`` of the acceleration, on ``fit``'s loop and
-    the ``n_best`` standard loops that rank best with one pair, the friction ``fit`` found (else
-    the largest level) at the lowest headroom (the grid ranks starts in two stages, not every
-    loop with every pair). Such a drive clips on every fast move (the second simulator's
-    thermal/17: a limit of 1.3 times the Coulomb force, a third of the reference's largest
-    acceleration, 4 % of the samples clipped; no limit was found and 82 um were left, 80 times
-    the floor). It is the second search, not part of the first: the clipped moves show the
-    headroom, the limit minus the friction, far better than either, and from those low starts
-    the first search's runs reach fits as close with a limit and a friction both half the truth
-    (the second simulator's control/5: after a right limit, the second search fits a limit 42 %
-    low at 0.40 times its squared error, so it does not run once a limit is kept).
+    The best fit's limit counts when it clips at least ``settings.rows_per_parameter``
+    samples (a limit is one parameter, and the samples it clips are what determine it). It is
+    kept when the loop with it leaves less than ``settings.limit_margin`` of the squared error
+    without it, and is tentative when it leaves less than that error at all (the criterion
+    then decides between the searches with and without it). Like the loop gains the limit is
+    a property of the loop the effects are then judged with, not an effect.
+
+    These starts and that floor replaced two searches (a drive sized for the motion, its
+    limits 1.5 and 3 times the reference's largest acceleration and at least half of it, and,
+    when it kept none, a drive sized for its friction, its limits 1.2, 1.5 and 3 times each
+    Coulomb force and at least a tenth of that acceleration: four tuned fields) and a share
+    of the samples clipped, 0.5 % (tuned); docs/diagnosis_method.md.
     """
     a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
         return None, None
+    headroom = limit_headroom(prep)
+    if not headroom > 0.0:
+        return None, None
     cfg = defaults()
-    motion = [(f_fc, f_lim) for f_fc in cfg.friction_starts for f_lim in cfg.limit_start_level]
-    loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
-             + list(starting_pid_controllers(prep.inputs.loop_ts)))
-    first, _ = _fit_limit(fit, prep, bounds, a_ref, motion, cfg.limit_lowest, (1.0, 2.0),
-                          max_iter, n_best, loops)
-    if first is not None and first.sse_ratio < cfg.limit_margin:
-        return first, None
-    # the friction the fit without a limit found is a start of the second search too: a
-    # drive sized for its friction clips just above it, however it compares with the
-    # motion's acceleration (the second simulator's control/28: a PID whose limit is 1.3
-    # times a Coulomb force of 2.9 times the reference's largest acceleration, beyond the
-    # grid; the loop fitted without the limit left 12.6 um, 450 floors, and a false
-    # cogging cut that 2.7x)
+    # in units of a_ref, as the Coulomb starts are
     fitted = (float(fit.model.plant[CL.I_FC]) / a_ref
               if "coulomb_friction" in fit.model.effects else 0.0)
+    # the friction the fit without a limit found is a start too: a drive sized for its
+    # friction clips just above it, however it compares with the motion's acceleration (the
+    # second simulator's control/28: a PID whose limit is 1.3 times a Coulomb force of 2.9
+    # times the reference's largest acceleration; the loop fitted without the limit left
+    # 12.6 um, 450 floors, and a false cogging cut that 2.7x)
     levels = sorted({*cfg.friction_starts, *([fitted] if fitted > 0.0 else [])})
-    friction = [(f_fc, h * f_fc) for f_fc in levels for h in cfg.limit_start_headroom]
-    # its grid of starts in two stages: every loop with the friction fitted without a limit
-    # (else the largest level) and the lowest headroom, then every pair on the loops that
-    # ranked best there (every loop with every pair, 588 free runs, was three quarters of
-    # this function's 6.3 s on diagnose_timing's 40,000-sample run)
-    probe = fitted if fitted > 0.0 else levels[-1]
-    _, ranked = _fit_limit(fit, prep, bounds, a_ref,
-                           [(probe, min(cfg.limit_start_headroom) * probe)],
-                           cfg.limit_lowest_friction_sized, (), max_iter, 0, loops)
-    second, _ = _fit_limit(fit, prep, bounds, a_ref, friction,
-                           cfg.limit_lowest_friction_sized, (), max_iter, n_best,
-                           list(dict.fromkeys([fit.model.controller, *ranked[:n_best]])))
-    if second is not None and second.sse_ratio < cfg.limit_margin:
-        return second, None
-    # any limit that lowers the error at all is tried: the criterion then decides between the
+    loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
+             + list(starting_pid_controllers(prep.inputs.loop_ts)))
+    own = fit.model.copy()
+    own.plant[CL.I_IMAX] = (fitted + headroom / a_ref) * a_ref
+    found = _fit_limit(fit, prep, bounds, own, a_ref,
+                       [(f, f + headroom / a_ref) for f in levels], headroom / a_ref,
+                       max_iter, n_best, loops)
+    if found is None or not found.sse_ratio < 1.0:
+        return None, None
+    if found.sse_ratio < cfg.limit_margin:
+        return found, None
+    # a limit that lowers the error at all is tried: the criterion then decides between the
     # searches with and without it (this was a field, limit_tentative, whose value 1 meant that)
-    near = [d for d in (first, second) if d is not None and d.sse_ratio < 1.0]
-    return None, (min(near, key=lambda d: d.sse_ratio) if near else None)
+    return None, found
 
 
-def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: float,
-               pairs: Sequence[tuple[float, float]], lowest: float | None,
-               fit_levels: Sequence[float], max_iter: int, n_best: int,
+def limit_headroom(prep: Prepared) -> float:
+    """What a run without an effort shows of its drive's limit, per unit mass: the largest
+    filtered acceleration while the axis speeds up in the direction it moves (0 when it never
+    does).
+
+    There the drive delivers the acceleration, the damping's force and the friction's, and a
+    drive that clips delivers no more: the limit minus the friction and the damping's force
+    when the drive clipped there, a lower bound of the limit whatever the drive. The damping's
+    force is left out: a loop fitted without a limit puts the clipping's lag into its damping
+    (the second simulator's control/12: 58 1/s against the truth's 0.43).
+    """
+    speeding_up = prep.af * prep.vf > 0.0
+    return float(np.max(np.abs(prep.af[speeding_up]))) if np.any(speeding_up) else 0.0
+
+
+def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, own: GreyBox,
+               a_ref: float, pairs: Sequence[tuple[float, float]], lowest: float,
+               max_iter: int, n_best: int,
                loops: Sequence[CascadeController | ArxController]
-               ) -> tuple[DriveLimit | None, list[CascadeController | ArxController]]:
-    """One search of :func:`drive_limits`: starts from ``fit`` with the limits
-    ``fit_levels`` and from the best ``n_best`` of the grid of ``loops`` and ``(Coulomb
-    force, limit)`` ``pairs``, all in units of ``a_ref``, the limit bounded below by
-    ``lowest`` of it (None: the limit held at its start). The best fit's limit, whatever the
-    error it leaves, when it clips at least ``settings.limit_min_clipped`` of the samples,
-    else None; and the grid's loops, best first (each by its best pair)."""
-    limit_params = ([] if lowest is None
-                    else [Param(CL.I_IMAX, True, lowest * a_ref, 100.0 * a_ref, 1.0)])
-    starts = []
-    for factor in fit_levels:
-        m = fit.model.copy()
-        m.plant[CL.I_IMAX] = factor * a_ref
-        starts.append(m)
+               ) -> DriveLimit | None:
+    """The search of :func:`drive_limits`: fits of the loop, a Coulomb force and the limit
+    (bounded below by ``lowest``) from ``own`` and, for each ``(Coulomb force, limit)`` of
+    ``pairs``, from the ``n_best`` of ``loops`` that start closest to the run; forces in
+    units of ``a_ref``, the reference's largest acceleration.
+    The best fit's limit when it clips at least ``settings.rows_per_parameter`` samples, else
+    None."""
+    limit = Param(CL.I_IMAX, True, lowest * a_ref, max(100.0, 2.0 * lowest) * a_ref, 1.0)
     grid = []
     for ctrl in loops:
         for f_fc, f_lim in pairs:
@@ -303,37 +301,32 @@ def _fit_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds, a_ref: fl
             grid.append(m)
     # ranked with one plant substep per sample instead of prep.n_sub: a ranking of starts
     # (the fits run at prep.n_sub), at half the cost of the grid on a long run
-    if grid:
-        ys, _, status = simulate_inputs(grid, prep.inputs, 1, effort=False)
-        sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y))
-                        else np.inf for y, s in zip(ys, status, strict=True)])
-        order = np.argsort(sse, kind="stable")
-        starts += [grid[i] for i in order[:n_best] if np.isfinite(sse[i])]
-        ranked = list(dict.fromkeys(grid[i].controller for i in order if np.isfinite(sse[i])))
-    else:
-        ranked = []
-    if not starts:
-        return None, ranked
+    ys, _, status = simulate_inputs(grid, prep.inputs, 1, effort=False)
+    sse = np.array([np.sum((prep.x - y) ** 2) if s == 0 and np.all(np.isfinite(y))
+                    else np.inf for y, s in zip(ys, status, strict=True)])
+    starts = [own]
+    # the best loops of each pair: the pairs are the basins (how the force splits between the
+    # friction and the limit), which a ranking of the starts cannot judge
+    for j in range(len(pairs)):
+        mine = np.argsort(sse[j::len(pairs)], kind="stable")[:n_best] * len(pairs) + j
+        starts += [grid[i] for i in mine if np.isfinite(sse[i])]
     # independent fits, on two threads at once (the same numbers), racing: the starts differ
     # in the clip's level and friction, basins a heat of settings.limit_race_share tells
     # apart; only the best heat finishes
     fits = [r for r in race_fits(
-        [(PositionFit(prep, position_params(m, bounds, controller=True) + limit_params), m)
+        [(PositionFit(prep, position_params(m, bounds, controller=True) + [limit]), m)
          for m in starts], max_iter, share=defaults().limit_race_share) if r is not None]
-    if not fits:
-        return None, ranked
-    best = min(fits, key=lambda r: r.cost)
-    if not np.isfinite(best.cost):
-        return None, ranked
+    best = min(fits, key=lambda r: r.cost) if fits else None
+    if best is None or not np.isfinite(best.cost):
+        return None
     level = float(best.model.plant[CL.I_IMAX])
     _, u, status = simulate_models([best.model], prep)
     if status[0] != 0 or not np.all(np.isfinite(u[0])):
-        return None, ranked
-    clipped = float(np.mean(np.abs(u[0]) >= level * (1.0 - 1e-9)))
-    ratio = float(best.cost / fit.cost)
-    if clipped >= defaults().limit_min_clipped:
-        return DriveLimit(level, clipped, ratio, best.model), ranked
-    return None, ranked
+        return None
+    at_limit = np.abs(u[0]) >= level * (1.0 - 1e-9)
+    if int(np.count_nonzero(at_limit)) < defaults().rows_per_parameter:
+        return None
+    return DriveLimit(level, float(np.mean(at_limit)), float(best.cost / fit.cost), best.model)
 
 
 def fit_law(prep: Prepared, idim: InverseDynamics | None = None) -> ArxController:

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 30 today; the one-method issue's target is at most 15.**
+**Tuned values: 25 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -239,10 +239,10 @@ class DiagnoseSettings:
         Loop structure. Coulomb forces of the friction-aware fit's starts, in units of the
         run's force scale (the largest reference acceleration, or the linear loop's virtual
         effort): the joint fit of a loop and its friction has several minima. The drive
-        limit's two grids of starts take their Coulomb forces from it too, there in units of
-        the reference's largest acceleration (they had their own, 0.25, 0.5 and 1.0, tuned
-        apart until one grid served both). Tuned on the second simulator's tuning seeds
-        (commit f4b1890).
+        limit's starts take their Coulomb forces from it too, there in units of the reference's
+        largest acceleration, each with its limit the headroom the run shows above it (its two
+        grids had their own, 0.25, 0.5 and 1.0, tuned apart until one grid served both). Tuned
+        on the second simulator's tuning seeds (commit f4b1890).
     friction_raise : float
         Loop structure. Factor the friction levels' bounds are raised by when the
         friction-aware fit's Coulomb force ends on its bound. Tuned on the second simulator's
@@ -256,23 +256,6 @@ class DiagnoseSettings:
         Drive limit. A drive limit identified from the position alone is kept only when the
         loop with it fits the run with at most this fraction of the squared error without it.
         Tuned on the second simulator's tuning seeds (commit aa3670a).
-    limit_min_clipped : float
-        Drive limit. Share of the samples the identified limit must clip (a limit that never
-        acts is none). Tuned on the second simulator's tuning seeds (commit aa3670a).
-    limit_start_level : tuple of float
-        Drive limit. Limits of the first search's grid of starts (a drive sized for the
-        motion), in units of the reference's largest acceleration. Tuned on the second
-        simulator (commit 123fae0).
-    limit_lowest : float
-        Drive limit. Lowest drive limit fitted, in units of the reference's largest
-        acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
-    limit_start_headroom : tuple of float
-        Drive limit. Limits of the second grid (a drive sized for its friction), in units of
-        each start's Coulomb force. Tuned on the second simulator's tuning seeds (commit
-        848e47a).
-    limit_lowest_friction_sized : float
-        Drive limit. Lowest drive limit of the second search, in units of the reference's
-        largest acceleration. Tuned on the second simulator's tuning seeds (commit 848e47a).
     limit_race_share : float
         Drive limit. Share of the drive limit's fits' iterations every start runs before only
         the best heat runs the rest (``race_share`` for these fits: their starts differ in the
@@ -298,7 +281,10 @@ class DiagnoseSettings:
         replaced ``min_sliding_rows``, tuned to the same 60 on the second simulator's tuning
         seeds (commit 0eb1f7b; a second condition, below a fifth of the run too,
         ``few_sliding_share``, was retired before: docs/diagnosis_method.md), so no number
-        changed.
+        changed. A drive limit identified from the position alone counts when the loop with
+        it clips at least this many samples (the limit is one parameter, and those samples
+        determine it): it replaced ``limit_min_clipped``, a share of the samples, 0.5 %, tuned
+        on the second simulator's tuning seeds (commit aa3670a).
     rest_speed_share : float
         Inverse dynamics. A sample is at rest when its filtered speed is below this share of
         the largest reference speed; rows at or near rest stay out of the inverse dynamics
@@ -501,12 +487,6 @@ class DiagnoseSettings:
 
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
-    limit_min_clipped: float = _setting(0.005, tuned=True, check=_NONNEG)
-    limit_start_level: tuple[float, ...] = _setting((1.5, 3.0), tuned=True, check=_POSITIVES)
-    limit_lowest: float = _setting(0.5, tuned=True, check=_POSITIVE)
-    limit_start_headroom: tuple[float, ...] = _setting((1.2, 1.5, 3.0), tuned=True,
-                                                      check=_POSITIVES)
-    limit_lowest_friction_sized: float = _setting(0.1, tuned=True, check=_POSITIVE)
     limit_race_share: float = _setting(1.0 / 3.0, tuned=False, check=_SHARE)
 
     # -- the simulations -------------------------------------------------------------------------
