@@ -18,6 +18,7 @@ from fricbench.run_events import motion_sign, sign_reversals
 from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.diagnosis import DiagnosisResult
 from fricbench.sysid.diagnose.models import InverseDynamics
+from fricbench.sysid.diagnose.settings import defaults
 
 __all__ = ["write_json", "write_report", "jsonable", "PLOTS"]
 
@@ -151,10 +152,12 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     # -- against position, with the spatial spectrum
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
     x = prep.xf
-    moving = np.abs(v) > 0.05 * max(prep.v_max, 1e-12)
+    # the samples that slide (settings.sliding_share), as the diagnosis's own
+    sliding = defaults().sliding_share * max(prep.v_max, 1e-12)
+    moving = np.abs(v) > sliding
     if effort is not None:
         xs, res_b, res_a = effort[2].x_dec, effort[0], effort[1]
-        mv = np.abs(effort[2].v_dec) > 0.05 * max(prep.v_max, 1e-12)
+        mv = np.abs(effort[2].v_dec) > sliding
         label, unit = "effort residual", result.force_unit
     else:
         xs, res_b, res_a, mv = x, r_before * um, r_after * um, moving

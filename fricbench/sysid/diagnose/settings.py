@@ -384,7 +384,9 @@ class DiagnoseSettings:
         whose shape is fitted from the data. Not tuned: a budget.
     sliding_share : float
         Signals. A sample slides when its speed exceeds this share of the run's largest (the
-        report's "moving" samples use the same). Tuned on EMPS (commit f7c7ee1).
+        report's "moving" samples and the cogging's period screens, closed and open loop, use
+        the same; three of those read an inline 0.05 until they read this). Tuned on EMPS
+        (commit f7c7ee1).
     min_sliding_samples : int
         Signals. Fewer sliding samples than this give no sliding effort error. Not tuned: too
         few to mean anything.

@@ -12,6 +12,7 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe, signed_level, signed_level_clip
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 from fricbench.sysid.diagnose.signals import open_loop_motion, period_candidates
 
 
@@ -54,7 +55,8 @@ class Cogging(Effect):
                y: np.ndarray) -> list[Probe]:
         r = prep.x - y
         v = prep.vf
-        moving = np.abs(v) > 0.05 * b.v_max
+        # the samples that slide, as the report's and the open-loop screen's
+        moving = np.abs(v) > defaults().sliding_share * b.v_max
         lo = max(1e-4, 20.0 * prep.noise.rms)
         periods: list[float] = []
         for sgn in (1.0, -1.0):
@@ -80,8 +82,9 @@ class Cogging(Effect):
         if not start:
             return np.array([p[CL.I_COGP]])
         pr = idim.prep
-        moving = np.abs(idim.v_dec) > 0.05 * pr.v_max
-        fast = np.abs(pr.vf) > 0.05 * pr.v_max
+        sliding = defaults().sliding_share * pr.v_max
+        moving = np.abs(idim.v_dec) > sliding
+        fast = np.abs(pr.vf) > sliding
         # shortest period: above the noise, and at least 4 samples at a typical speed
         lo = max(1e-4, 20.0 * pr.noise.rms, 4.0 * pr.ts * float(np.median(
             np.abs(pr.vf[fast]))) if np.any(fast) else 1e-4)
@@ -104,8 +107,6 @@ class Cogging(Effect):
         each refined by that inverse dynamics with the ripple's first two orders in it, with
         the fundamental's amplitudes it gives."""
         from scipy.optimize import minimize_scalar
-
-        from fricbench.sysid.diagnose.settings import defaults
 
         if y.size < 50:
             return []
