@@ -340,12 +340,13 @@ def test_joint_position_fit_of_one_run_is_the_position_fit():
 
 
 
-def test_starts_that_race_spend_the_budget_on_the_best_heat(monkeypatch) -> None:
+def test_starts_that_race_spend_the_budget_on_the_best_heats(monkeypatch) -> None:
     """Three starts of a friction fit race (``race_share`` a third): each runs a third of the
-    budget, only the best heat runs the rest, from where it ended (the same numbers as going
-    on by hand), and ends as low as the best of the three whole fits; one finalist per
-    family; a single start, or a race share of 1 (the default), is the whole fit, bit for
-    bit; a share the caller passes races whatever the setting."""
+    budget, only the best heat (a third of three) runs the rest, from where it ended (the
+    same numbers as going on by hand), and ends as low as the best of the three whole fits;
+    of six starts the two best heats go on; one finalist per family; a single start, or a
+    race share of 1 (the default), is the whole fit, bit for bit; a share the caller passes
+    races whatever the setting."""
     from dataclasses import replace
 
     from fricbench.sysid.diagnose import settings as S
@@ -385,6 +386,14 @@ def test_starts_that_race_spend_the_budget_on_the_best_heat(monkeypatch) -> None
     assert shut[winner] is None and sum(r is not None for r in shut) == 1
     alone = race_fits([(fit, starts[1])], 6)[0]
     np.testing.assert_array_equal(alone.model.plant, whole[1].model.plant)
+    # six starts: a third of them, the two best heats, go on (successive halving, eta = 3)
+    six = starts + [st.copy() for st in starts]
+    for st, factor in zip(six[3:], (2.0, 0.8, 0.5), strict=True):
+        st.plant[CL.I_FC] = truth.plant[CL.I_FC] * factor
+    raced6 = race_fits([(fit, st) for st in six], 6)
+    heats6 = [fit.run(st, max_iter=2).cost for st in six]
+    assert ([i for i, r in enumerate(raced6) if r is not None]
+            == sorted(int(i) for i in np.argsort(heats6, kind="stable")[:2]))
     monkeypatch.setattr(S, "DEFAULT_SETTINGS", default)
     every = race_fits([(fit, st) for st in starts], 6)
     for r, w in zip(every, whole, strict=True):

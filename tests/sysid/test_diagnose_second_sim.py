@@ -366,19 +366,14 @@ _CASES: list[tuple[str, int, dict[str, object]]] = [
 # along the stroke beside the backlash, passes since the force levels' bounds are raised, a
 # period walks beyond its trust region and a friction-sized drive limit starts from the fitted
 # friction, 708bb29 to 0358016.)
-_KNOWN_MISSES: dict[tuple[str, int], str] = {
-    ("thermal", 25): (
-        "a known miss since the drive limit's starts race (settings.limit_race_share, a "
-        "third; the held-out sets as many runs right as before, this run and the sweep's "
-        "stribeck/19 lost, its backlash/14 and thermal/26 gained): the thermal drift is "
-        "missed, Coulomb friction alone named (19 -> 8.86 um, floor 0.043 um)"),
-}
+_KNOWN_MISSES: dict[tuple[str, int], str] = {}
 # (thermal-25, which named nothing: its loop model missed most of the error, the run clipping
 # its current on 3 % of the samples with no effort logged, and the thermal drift's best fit
 # stood in with its time constant on the lower bound, passes since friction is judged by its
 # held-out cut alone, with no size against the noise floor, and a residual at the floor no longer
 # ends the position search: one commit, the two together; missed again since the drive limit's
-# starts race, above.)
+# starts raced with only the best heat going on; right again since a third of the heats go on
+# and the limit's Coulomb starts span its split in units of the headroom.)
 
 
 def _param(kind: str, seed: int, overrides: dict[str, object]) -> object:

@@ -196,7 +196,7 @@ def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
 
 
 def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
-                 max_iter: int = 15, n_best: int = 3
+                 max_iter: int = 15, n_best: int = 2
                  ) -> tuple[DriveLimit | None, DriveLimit | None]:
     """The drive's command limit kept (or None), and else the tentative one (or None).
 
@@ -210,11 +210,13 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     simulator's control/5: fits as close with a limit and a friction both half the truth), so
     each start is a Coulomb force with the limit the headroom above it: ``fit``'s own model
     (the loop and a Coulomb force fitted without a limit, :func:`friction_aware_fit`), and for
-    each Coulomb force of ``settings.friction_starts`` (in units of the reference's largest
-    acceleration) and ``fit``'s, the best ``n_best`` of the standard loops of both families
-    and ``fit``'s (:func:`_fit_limit`). A drive that clips against a friction as large as the
-    motion's own acceleration lags so far that a fit without a limit finds no friction at all
-    (the loop alone explains more): ``fit``'s friction is then no start, the grid's are. The
+    each Coulomb force of ``settings.limit_friction_grid`` (in units of the headroom) and
+    ``fit``'s, the best ``n_best`` of the standard loops of both families and ``fit``'s
+    (:func:`_fit_limit`). A drive that clips against a friction as large as the motion's own
+    acceleration lags so far that a fit without a limit finds no friction at all (the loop
+    alone explains more): ``fit``'s friction is then no start, the grid's are. The headroom
+    says nothing of how the limit splits between the friction and what is left, so the grid
+    spans that split (the friction a fifth of the limit to nearly all of it). The
     limit is bounded below by the headroom itself, the largest acceleration the axis showed in
     the direction it moved (the drive delivered at least that, the damping and the friction
     opposing it).
@@ -230,7 +232,11 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     limits 1.5 and 3 times the reference's largest acceleration and at least half of it, and,
     when it kept none, a drive sized for its friction, its limits 1.2, 1.5 and 3 times each
     Coulomb force and at least a tenth of that acceleration: four tuned fields) and a share
-    of the samples clipped, 0.5 % (tuned); docs/diagnosis_method.md.
+    of the samples clipped, 0.5 % (tuned); docs/diagnosis_method.md. The Coulomb forces were
+    ``settings.friction_starts`` (0.3 and 1 times the reference's largest acceleration, tuned
+    for the friction-aware fit) until the grid: a drive sized for its friction clips against
+    a force several times the motion's, which those starts did not reach (the second
+    simulator's development runs: the friction 1 to 5 times the headroom).
     """
     a_ref = reference_acceleration(prep)
     if not (a_ref > 0.0 and fit.cost > 0.0) or np.isfinite(fit.model.plant[CL.I_IMAX]):
@@ -247,7 +253,8 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     # second simulator's control/28: a PID whose limit is 1.3 times a Coulomb force of 2.9
     # times the reference's largest acceleration; the loop fitted without the limit left
     # 12.6 um, 450 floors, and a false cogging cut that 2.7x)
-    levels = sorted({*cfg.friction_starts, *([fitted] if fitted > 0.0 else [])})
+    levels = sorted({*(g * headroom / a_ref for g in cfg.limit_friction_grid),
+                     *([fitted] if fitted > 0.0 else [])})
     loops = ([fit.model.controller] + list(starting_controllers(prep.inputs.loop_ts))
              + list(starting_pid_controllers(prep.inputs.loop_ts)))
     own = fit.model.copy()

@@ -238,11 +238,8 @@ class DiagnoseSettings:
     friction_starts : tuple of float
         Loop structure. Coulomb forces of the friction-aware fit's starts, in units of the
         run's force scale (the largest reference acceleration, or the linear loop's virtual
-        effort): the joint fit of a loop and its friction has several minima. The drive
-        limit's starts take their Coulomb forces from it too, there in units of the reference's
-        largest acceleration, each with its limit the headroom the run shows above it (its two
-        grids had their own, 0.25, 0.5 and 1.0, tuned apart until one grid served both). Tuned
-        on the second simulator's tuning seeds (commit f4b1890).
+        effort): the joint fit of a loop and its friction has several minima. Tuned on the
+        second simulator's tuning seeds (commit f4b1890).
     friction_raise : float
         Loop structure. Factor the friction levels' bounds are raised by when the
         friction-aware fit's Coulomb force ends on its bound. Tuned on the second simulator's
@@ -256,13 +253,23 @@ class DiagnoseSettings:
         Drive limit. A drive limit identified from the position alone is kept only when the
         loop with it fits the run with at most this fraction of the squared error without it.
         Tuned on the second simulator's tuning seeds (commit aa3670a).
+    limit_friction_grid : tuple of float
+        Drive limit. Coulomb forces of the drive limit's starts, in units of the headroom the
+        run shows (the limit minus the friction when the drive clipped while speeding up;
+        :func:`~fricbench.sysid.diagnose.baselines.limit_headroom`), each with its limit that
+        headroom above it. The run does not say how the limit splits between the friction and
+        the headroom: the grid spans the friction's share of the limit from a fifth (0.25) to
+        94 % (16), in factors of 2. Not tuned: a span, the first grid tried (the drive limit
+        took ``friction_starts`` before, in units of the reference's acceleration, which a
+        drive sized for its friction, clipping against several times that, did not reach).
     limit_race_share : float
-        Drive limit. Share of the drive limit's fits' iterations every start runs before only
-        the best heat runs the rest (``race_share`` for these fits: their starts differ in the
-        clip's level and the friction, and a heat tells the basins apart). Not tuned: a third
-        is successive halving's usual rate (eta = 3; Li et al., JMLR 2018), the first value
-        tried; the held-out sets and the drive limit's tests as with the whole fits, the timing
-        run's drive limit 924 -> 552 free runs (docs/diagnosis_method.md).
+        Drive limit. Share of the drive limit's fits' iterations every start runs before the
+        best heats, the same share of them, run the rest (``race_share`` for these fits: their
+        starts differ in the clip's level and the friction, and a heat tells the basins
+        apart). Not tuned: a third is successive halving's usual rate (eta = 3; Li et al.,
+        JMLR 2018), the first value tried; the held-out sets and the drive limit's tests as
+        with the whole fits, the timing run's drive limit 924 -> 552 free runs when only the
+        best heat went on (docs/diagnosis_method.md).
     effort_max_step : float
         Simulation. Longest plant integration step of the effort's diagnosis, s: its free runs
         only judge forces fitted by inverse dynamics, and a coarse step blames the friction for
@@ -489,6 +496,8 @@ class DiagnoseSettings:
 
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
+    limit_friction_grid: tuple[float, ...] = _setting((0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0),
+                                                      tuned=False, check=_POSITIVES)
     limit_race_share: float = _setting(1.0 / 3.0, tuned=False, check=_SHARE)
 
     # -- the simulations -------------------------------------------------------------------------
