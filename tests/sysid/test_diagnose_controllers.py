@@ -189,9 +189,10 @@ def test_a_clipping_drive_is_found_from_the_position() -> None:
     run = validate_arrays(case.trace.t[idx], case.trace.x_ref[idx], case.trace.y_log[idx])
     prep = prepare(run)
     linear, _, bounds, _ = BL.fit_linear_cascade(prep)
-    fit = BL.friction_aware_fit(linear, prep, bounds)
+    # the fit the diagnosis starts from: at the better of the two force scales
+    fit, bounds = BL.friction_aware_fit_scaled(linear, prep, bounds)
     assert fit is not None
-    limit = BL.fit_drive_limit(fit, prep, bounds)
+    limit = BL.drive_limits(fit, prep, bounds)[0]  # the diagnosis's call, its defaults
     assert limit is not None
     assert 0.5 * truth < limit.level < 2.0 * truth, (limit, truth)
     assert limit.sse_ratio < DEFAULT_SETTINGS.limit_margin

@@ -674,9 +674,10 @@ def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
     ``settings.friction_raise`` times higher (:attr:`Bounds.friction_raise`) when its Coulomb force
     ended on its upper bound; the better fit and its bounds.
 
-    A force scale (the linear loop's virtual effort) more than ``settings.scale_spread`` times the
-    reference's largest acceleration is checked first: the fit is also run with the
-    acceleration as the force scale, and the better fit's scale is the run's. The virtual
+    A force scale (the linear loop's virtual effort) larger than the reference's largest
+    acceleration is checked first: the fit is also run with the acceleration as the force
+    scale, and the better fit's scale is the run's (until scale_spread retired, only beyond 100
+    times the acceleration: tuned, and the held-out counts held without it). The virtual
     effort is the linear loop's command on the measured position, and a linear loop fitted to
     a run it cannot describe makes it meaningless: on the second simulator's thermal/20 (a
     cascade with a 3-sample command delay, no effort) the linear loop's velocity integral
@@ -699,7 +700,7 @@ def friction_aware_fit_scaled(linear: GreyBox, prep: Prepared, bounds: Bounds
     """
     fit = friction_aware_fit(linear, prep, bounds)
     a_ref = reference_acceleration(prep)
-    if 0.0 < defaults().scale_spread * a_ref < bounds.force:
+    if 0.0 < a_ref < bounds.force:
         motion = replace(bounds, force=a_ref)
         other = friction_aware_fit(linear, prep, motion)
         if other is not None and (fit is None or other.cost < fit.cost):

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 25 today; the one-method issue's target is at most 15.**
+**Tuned values: 24 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -244,11 +244,6 @@ class DiagnoseSettings:
         Loop structure. Factor the friction levels' bounds are raised by when the
         friction-aware fit's Coulomb force ends on its bound. Tuned on the second simulator's
         tuning seeds (commit 708bb29).
-    scale_spread : float
-        Loop structure. A force scale above this many times the reference's largest
-        acceleration is checked against that acceleration's (friction can be tens of times a
-        slow motion's inertial force). Tuned on the second simulator's tuning seeds (10, then
-        100; commit 0221839).
     limit_margin : float
         Drive limit. A drive limit identified from the position alone is kept only when the
         loop with it fits the run with at most this fraction of the squared error without it.
@@ -492,7 +487,6 @@ class DiagnoseSettings:
     no_filter_share: float = _setting(0.01, tuned=False, check=_NONNEG)
     friction_starts: tuple[float, ...] = _setting((0.3, 1.0), tuned=True, check=_POSITIVES)
     friction_raise: float = _setting(10.0, tuned=True, check=_AT_LEAST_1)
-    scale_spread: float = _setting(100.0, tuned=True, check=_POSITIVE)
 
     # -- the drive limit (identified from the position) -----------------------------------------
     limit_margin: float = _setting(0.5, tuned=True, check=_POSITIVE)
