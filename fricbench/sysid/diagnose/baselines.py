@@ -187,10 +187,10 @@ class DriveLimit:
 
 
 def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
-                    max_iter: int = 15, n_best: int = 3) -> DriveLimit | None:
+                    max_iter: int = 15, n_best: int = 2) -> DriveLimit | None:
     """The drive's command limit, when a run without an effort shows one; else None.
 
-    The first of :func:`drive_limits`; see there.
+    The first of :func:`drive_limits`, with the same defaults (the diagnosis's own search).
     """
     return drive_limits(fit, prep, bounds, max_iter, n_best)[0]
 
