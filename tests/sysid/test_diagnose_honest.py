@@ -23,6 +23,7 @@ from fricbench.sysid.diagnose.models import GreyBox
 from fricbench.sysid.diagnose.parameters import Bounds
 from fricbench.sysid.diagnose.prepared import prepare
 from fricbench.sysid.diagnose.search import artefact
+from fricbench.sysid.diagnose.settings import DEFAULT_SETTINGS
 from fricbench.sysid.diagnose.signals import (
     NoiseFloor,
     choose_filter,
@@ -298,7 +299,9 @@ def test_the_step_run_of_the_dc_motor_is_diagnosed_honestly() -> None:
 
 def test_the_effort_error_while_sliding_leaves_out_the_rests() -> None:
     """Beside the effort error over every sample, the report gives it over the samples where
-    the axis slides (speed above 5 % of its largest), computed on exactly those rows."""
+    the axis slides (speed above ``settings.rest_speed_share`` of its largest, the share below
+    which the inverse dynamics leaves a sample out as at rest), computed on exactly those
+    rows."""
     from fricbench.sysid.diagnose.models import InverseDynamics
 
     rng = np.random.default_rng(4)
@@ -308,7 +311,7 @@ def test_the_effort_error_while_sliding_leaves_out_the_rests() -> None:
     assert effort is not None
     idim = InverseDynamics(res.prep, res.prep.u, delay=int(res.linear.plant[CL.I_DELAY]))
     speed = np.abs(idim.v_dec)
-    rows = np.flatnonzero(speed > 0.05 * speed.max())
+    rows = np.flatnonzero(speed > DEFAULT_SETTINGS.rest_speed_share * speed.max())
     assert 20 <= rows.size < speed.size
     final = res.search.final.model
     assert effort["relerr_sliding_before_pct"] == idim.relerr(res.linear.plant, rows)

@@ -470,7 +470,7 @@ def _evaluate(linear: GreyBox, final: GreyBox, prep: Prepared,
         idim = InverseDynamics(prep, prep.u, delay=int(final.plant[CL.I_DELAY]))
         eb, ea = idim.relerr(linear.plant), idim.relerr(final.plant)
         speed = np.abs(idim.v_dec)
-        sliding = np.flatnonzero(speed > defaults().sliding_share
+        sliding = np.flatnonzero(speed > defaults().rest_speed_share
                                  * float(np.max(speed, initial=0.0)))
         if sliding.size >= defaults().min_sliding_samples:
             sb, sa = idim.relerr(linear.plant, sliding), idim.relerr(final.plant, sliding)

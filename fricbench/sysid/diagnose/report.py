@@ -152,8 +152,8 @@ def write_report(result: DiagnosisResult, directory: str) -> list[str]:
     # -- against position, with the spatial spectrum
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
     x = prep.xf
-    # the samples that slide (settings.sliding_share), as the diagnosis's own
-    sliding = defaults().sliding_share * max(prep.v_max, 1e-12)
+    # the samples that slide (settings.rest_speed_share), as the diagnosis's own
+    sliding = defaults().rest_speed_share * max(prep.v_max, 1e-12)
     moving = np.abs(v) > sliding
     if effort is not None:
         xs, res_b, res_a = effort[2].x_dec, effort[0], effort[1]

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 24 today; the one-method issue's target is at most 15.**
+**Tuned values: 23 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -291,9 +291,11 @@ class DiagnoseSettings:
         Inverse dynamics. A sample is at rest when its filtered speed is below this share of
         the largest reference speed; rows at or near rest stay out of the inverse dynamics
         (the friction holding an axis at rest is set-valued: no sliding law predicts it).
-        ``sliding_share`` says when a sample slides for the signals and the report: the same
-        idea at another value. Tuned: set by hand with the first search (commit 90b5a80);
-        written inline in ``prepared.py`` until it became a field.
+        The same share says when a sample slides for the signals, the cogging's period
+        screens and the report (the sliding effort error, the moving samples): one idea, one
+        value (those read ``sliding_share``, 5 %, tuned on EMPS in commit f7c7ee1, until it
+        retired). Tuned: set by hand with the first search (commit 90b5a80); written inline in
+        ``prepared.py`` until it became a field.
     rest_row_share : float
         Inverse dynamics. A decimated row is at rest when at least this share of it (its rest
         indicator through the decimation filter) is. Tuned: set by hand with the first search
@@ -384,11 +386,6 @@ class DiagnoseSettings:
     n_data_starts : int
         Open-loop search. Starts from the data kept (the best by free-run error) for an effect
         whose shape is fitted from the data. Not tuned: a budget.
-    sliding_share : float
-        Signals. A sample slides when its speed exceeds this share of the run's largest (the
-        report's "moving" samples and the cogging's period screens, closed and open loop, use
-        the same; three of those read an inline 0.05 until they read this). Tuned on EMPS
-        (commit f7c7ee1).
     min_sliding_samples : int
         Signals. Fewer sliding samples than this give no sliding effort error. Not tuned: too
         few to mean anything.
@@ -528,7 +525,6 @@ class DiagnoseSettings:
     n_data_starts: int = _setting(2, tuned=False, check=_COUNT)
 
     # -- the signals -------------------------------------------------------------------------------
-    sliding_share: float = _setting(0.05, tuned=True, check=_SHARE_OPEN)
     min_sliding_samples: int = _setting(20, tuned=False, check=_COUNT)
     quantum_grid_tolerance: float = _setting(0.05, tuned=False, check=_SHARE_OPEN)
     steps_per_filter_period: float = _setting(5.0, tuned=True, check=_POSITIVE)

@@ -56,7 +56,7 @@ class Cogging(Effect):
         r = prep.x - y
         v = prep.vf
         # the samples that slide, as the report's and the open-loop screen's
-        moving = np.abs(v) > defaults().sliding_share * b.v_max
+        moving = np.abs(v) > defaults().rest_speed_share * b.v_max
         lo = max(1e-4, 20.0 * prep.noise.rms)
         periods: list[float] = []
         for sgn in (1.0, -1.0):
@@ -82,7 +82,7 @@ class Cogging(Effect):
         if not start:
             return np.array([p[CL.I_COGP]])
         pr = idim.prep
-        sliding = defaults().sliding_share * pr.v_max
+        sliding = defaults().rest_speed_share * pr.v_max
         moving = np.abs(idim.v_dec) > sliding
         fast = np.abs(pr.vf) > sliding
         # shortest period: above the noise, and at least 4 samples at a typical speed
@@ -112,7 +112,7 @@ class Cogging(Effect):
             return []
         yf, uf, v, acc = open_loop_motion(effort, y, ts)
         v_max = float(np.max(np.abs(v)))
-        moving = np.abs(v) > defaults().sliding_share * v_max
+        moving = np.abs(v) > defaults().rest_speed_share * v_max
         if np.count_nonzero(moving) < 50:
             return []
         X = np.column_stack([acc, v, np.sign(v), np.ones_like(v)])
