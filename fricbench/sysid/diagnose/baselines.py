@@ -187,12 +187,14 @@ class DriveLimit:
 
 
 def fit_drive_limit(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
-                    max_iter: int = 15, n_best: int = 2) -> DriveLimit | None:
+                    **options: int) -> DriveLimit | None:
     """The drive's command limit, when a run without an effort shows one; else None.
 
-    The first of :func:`drive_limits`, with the same defaults (the diagnosis's own search).
+    The first of :func:`drive_limits`, whose options (``max_iter``, ``n_best``) and defaults
+    it takes as they are: the diagnosis's own search (a copy of the defaults here drifted
+    from them once, and the suite judged a search the diagnosis did not run).
     """
-    return drive_limits(fit, prep, bounds, max_iter, n_best)[0]
+    return drive_limits(fit, prep, bounds, **options)[0]
 
 
 def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
