@@ -126,13 +126,14 @@ def friction_fit_against_truth(case: S.Case, workdir: str | os.PathLike[str]
     ``(prep, fit, rms of the true loop, rms of the fit)``, m or rad."""
     import numpy as np
 
-    from fricbench.sysid.diagnose.baselines import fit_linear_cascade, friction_aware_fit
+    from fricbench.sysid.diagnose.baselines import fit_linear_cascade, friction_aware_fit_scaled
     from fricbench.sysid.diagnose.models import simulate_position
 
     prep = position_only(case, workdir)
     y_true, _ = simulate_position(true_pid_loop(case), prep)  # type: ignore[arg-type]
     linear, _, bounds, _ = fit_linear_cascade(prep)  # type: ignore[arg-type]
-    fit = friction_aware_fit(linear, prep, bounds)  # type: ignore[arg-type]
+    # the diagnosis's call (at the better of two force scales, a level on its bound raised)
+    fit, _ = friction_aware_fit_scaled(linear, prep, bounds)  # type: ignore[arg-type]
     if fit is None:
         raise AssertionError(f"{case.kind}/{case.seed}: no friction-aware fit")
     x = prep.x  # type: ignore[attr-defined]
