@@ -41,7 +41,7 @@ PLUMBING = {
 
 # Tuned fields of DiagnoseSettings at the commit that gathered them (a ratchet: the count may
 # only fall; the one-method issue's target is 15).
-TUNED_AT_MOST = 23
+TUNED_AT_MOST = 22
 
 
 def _numeric(node: ast.expr) -> bool:

@@ -485,7 +485,8 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     each delay the plant is refitted to the effort shifted by it, and each law of
     :func:`law_candidates` is closed around it with a Coulomb force (:func:`fit_law`'s choice,
     under that delay). The delay whose best law leaves the least position error is kept when it
-    is clearly better (``settings.delay_gain``) than none. On the second
+    is clearly better than none: it leaves less than ``settings.limit_margin`` of the squared
+    error, the margin a drive limit found from the position must clear. On the second
     simulator's thermal/21 (a cascade with a 3-sample delay, its current logged) the loop
     without a delay left 14.6 um, with it 7.3 um. The two are chosen together because each bends
     to the other: there, the law chosen without a delay (a cascade's clamp of the wrong integral
@@ -518,7 +519,7 @@ def fit_law_and_delay(prep: Prepared, idim: InverseDynamics
     # runs that had none (a twin's mass 12 % off on the tests' paper axis); its late error
     # after the shift is no held-out error, and the plant refitted to the shifted effort
     # bends to it
-    if best > 0 and np.isfinite(late[best]) and late[best] < defaults().delay_gain * late[0]:
+    if best > 0 and np.isfinite(late[best]) and late[best] < defaults().limit_margin * late[0]:
         return best_law[best], cands[best]
     return best_law[0], idim
 
