@@ -41,11 +41,7 @@ from fricbench.axis import plant as PL
 from fricbench.predictors.base import Predictor, Run
 from fricbench.predictors.tf import fit_linear_part, tf_from_state, tf_state
 from fricbench.sysid.diagnose import closed_loop as CL
-from fricbench.sysid.diagnose.baselines import (
-    FRICTION_STARTS,
-    fit_linear_cascade,
-    friction_aware_loop,
-)
+from fricbench.sysid.diagnose.baselines import fit_linear_cascade, friction_aware_loop
 from fricbench.sysid.diagnose.controllers import CascadeController, LoopInputs
 from fricbench.sysid.diagnose.models import (
     Bounds,
@@ -61,6 +57,10 @@ from fricbench.sysid.io import validate_arrays
 __all__ = ["GreyBoxPredictor"]
 
 FRICTION_LAWS = ("coulomb", "stribeck")
+FRICTION_START = 0.3
+"""The predictor's Coulomb start, in units of its runs' force scale: the first of the
+diagnosis's friction-aware starts when the predictor took them (those became a grid of
+factors of 2; this one stays, so the ``make bench`` rows stay as they were measured)."""
 _CONTROLLER_KEYS = ("wv", "kp", "ki", "kvff", "kaff")
 
 
@@ -160,9 +160,9 @@ class GreyBoxPredictor(Predictor):
         # the diagnosis's second one (for PID loops) changed 25 of the 160 greybox-precomp
         # rows of `make bench`, better and worse alike
         loop = friction_aware_loop(linear, preps[0], b0, pid=False,
-                                   friction_starts=FRICTION_STARTS[:1]).controller
+                                   friction_starts=(FRICTION_START,)).controller
         start = linear.copy(controller=loop, effects=("coulomb_friction",))
-        start.plant[CL.I_FC] = 0.3 * bounds.force
+        start.plant[CL.I_FC] = FRICTION_START * bounds.force
         params = position_params(start, bounds, controller=True)
         model, cost = JointPositionFit(preps, params).run(start, self.max_iter)
         self._log(f"greybox: Coulomb fit, cost {cost:.4g} ({time.perf_counter() - t0:.1f} s)")

@@ -39,7 +39,7 @@ from fricbench.sysid.tf_fit import fit_tf, simulate_tf
 __all__ = ["LinearTF", "fit_law", "fit_law_like", "law_relerr_floor",
            "fit_linear_tf", "fit_linear_cascade", "fit_linear_with_effort", "fit_law_and_delay",
            "force_scale", "starting_controllers", "friction_aware_loop",
-           "friction_aware_fit_scaled"]
+           "friction_aware_fit_scaled", "coulomb_starts"]
 
 
 @dataclass
@@ -235,8 +235,8 @@ def drive_limits(fit: PositionFitResult, prep: Prepared, bounds: Bounds,
     when it kept none, a drive sized for its friction, its limits 1.2, 1.5 and 3 times each
     Coulomb force and at least a tenth of that acceleration: four tuned fields) and a share
     of the samples clipped, 0.5 % (tuned); docs/diagnosis_method.md. The Coulomb forces were
-    ``settings.friction_starts`` (0.3 and 1 times the reference's largest acceleration, tuned
-    for the friction-aware fit) until the grid: a drive sized for its friction clips against
+    the friction-aware fit's starts then (0.3 and 1 times the reference's largest
+    acceleration, tuned for that fit) until the grid: a drive sized for its friction clips against
     a force several times the motion's, which those starts did not reach (the second
     simulator's development runs: the friction 1 to 5 times the headroom).
     """
@@ -560,7 +560,7 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     """The loop and a Coulomb force fitted together to the position (None: nothing could be
     simulated), from the linear loop and from the best standard loops, each with the Coulomb
     forces ``friction_starts`` (in units of ``bounds.force``; default
-    ``settings.friction_starts``).
+    :func:`coulomb_starts`).
 
     With ``pid`` (the default) the best standard PID position loop is refined too and
     replaces the cascade when the criterion prefers it (:func:`_pid_wins`): a drive whose PID
@@ -576,7 +576,7 @@ def friction_aware_fit(linear: GreyBox, prep: Prepared, bounds: Bounds, max_iter
     cascades = starting_controllers(prep.inputs.loop_ts)
     pids = starting_pid_controllers(prep.inputs.loop_ts) if pid else []
     if friction_starts is None:
-        friction_starts = defaults().friction_starts
+        friction_starts = coulomb_starts(bounds)
     if not friction_starts:
         raise ValueError("friction_starts=(): expected at least one Coulomb force")
     loops = [linear] + [linear.copy(controller=c) for c in cascades + pids]
@@ -759,9 +759,16 @@ def friction_aware_loop(linear: GreyBox, prep: Prepared, bounds: Bounds, max_ite
     return res.model
 
 
-def __getattr__(name: str) -> tuple[float, ...]:
-    # ``FRICTION_STARTS``, which ``fricbench.predictors.greybox`` imports, is
-    # ``settings.friction_starts``, read when asked
-    if name == "FRICTION_STARTS":
-        return defaults().friction_starts
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+def coulomb_starts(bounds: Bounds) -> tuple[float, ...]:
+    """Coulomb forces the friction-aware fit starts from, in units of ``bounds.force``.
+
+    The drive limit's grid of Coulomb forces (``settings.limit_friction_grid``, factors of 2)
+    inside the Coulomb level's range before any raise of it (below its bound: 0.25, 0.5 and
+    1): one grid of Coulomb starts for the loop's friction and the drive limit. The joint fit
+    of a loop and its friction has several minima; the grid spans them as it spans the
+    limit's split. Those starts were a tuned field, ``friction_starts`` (0.3 and 1), until
+    the held-out sets judged the grid (docs/diagnosis_method.md).
+    """
+    unraised = replace(bounds, friction_raise=1.0)
+    top = get_effect("coulomb_friction").bounds(CL.I_FC, 0.0, unraised).hi / bounds.force
+    return tuple(g for g in defaults().limit_friction_grid if g < top)

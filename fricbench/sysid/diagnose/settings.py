@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 22 today; the one-method issue's target is at most 15.**
+**Tuned values: 21 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -229,11 +229,6 @@ class DiagnoseSettings:
     no_filter_share : float
         Loop structure. A PID's derivative filter whose time constant is below this share of
         the loop period is reported as none. Not tuned: a convention of the report.
-    friction_starts : tuple of float
-        Loop structure. Coulomb forces of the friction-aware fit's starts, in units of the
-        run's force scale (the largest reference acceleration, or the linear loop's virtual
-        effort): the joint fit of a loop and its friction has several minima. Tuned on the
-        second simulator's tuning seeds (commit f4b1890).
     friction_raise : float
         Loop structure. Factor the friction levels' bounds are raised by when the
         friction-aware fit's Coulomb force ends on its bound. Tuned on the second simulator's
@@ -257,6 +252,12 @@ class DiagnoseSettings:
         94 % (16), in factors of 2. Not tuned: a span, the first grid tried (the drive limit
         took ``friction_starts`` before, in units of the reference's acceleration, which a
         drive sized for its friction, clipping against several times that, did not reach).
+        The same grid starts the friction-aware fit of the loop and a Coulomb force, in units
+        of the run's force scale (the largest reference acceleration, or the linear loop's
+        virtual effort): its entries below the Coulomb level's bound, twice that scale (0.25,
+        0.5 and 1; :func:`~fricbench.sysid.diagnose.baselines.coulomb_starts`). Those were a
+        field of their own, ``friction_starts`` (0.3 and 1, tuned on the second simulator's
+        tuning seeds in commit f4b1890), until the held-out sets judged this grid.
     limit_race_share : float
         Drive limit. Share of the drive limit's fits' iterations every start runs before the
         best heats, the same share of them, run the rest (``race_share`` for these fits: their
@@ -481,7 +482,6 @@ class DiagnoseSettings:
     ki_min_ratio: float = _setting(0.02, tuned=True, check=_POSITIVE)
     pid_kpi_min_ratio: float = _setting(1.0e-3, tuned=True, check=_POSITIVE)
     no_filter_share: float = _setting(0.01, tuned=False, check=_NONNEG)
-    friction_starts: tuple[float, ...] = _setting((0.3, 1.0), tuned=True, check=_POSITIVES)
     friction_raise: float = _setting(10.0, tuned=True, check=_AT_LEAST_1)
 
     # -- the drive limit (identified from the position) -----------------------------------------
