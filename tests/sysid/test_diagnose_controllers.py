@@ -151,6 +151,23 @@ def test_pid_parameters_keep_the_family() -> None:
     assert boxed["kpi_per_wv2"].lo <= 0.05 <= boxed["kpi_per_wv2"].hi
 
 
+def test_the_coulomb_starts_come_from_the_limit_grid_below_the_level_bound(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The friction-aware fit starts from the drive limit's grid below the Coulomb level's
+    bound; a grid with no entry there is refused with the field's name, not the argument's."""
+    from fricbench.sysid.diagnose import settings as settings_module
+
+    b = Bounds(force=1.0, stroke=0.01, v_max=0.01, duration=5.0, ts=TS, noise=1e-7)
+    grid = DEFAULT_SETTINGS.limit_friction_grid
+    starts = BL.coulomb_starts(b)
+    assert starts and set(starts) < set(grid) and max(starts) < min(set(grid) - set(starts))
+    monkeypatch.setattr(settings_module, "DEFAULT_SETTINGS",
+                        dataclasses.replace(DEFAULT_SETTINGS, limit_friction_grid=(4.0, 8.0)))
+    with pytest.raises(ValueError, match=r"^limit_friction_grid=\(4\.0, 8\.0\): expected at "
+                                         r"least one entry below 2,"):
+        BL.coulomb_starts(b)
+
+
 def test_a_pid_drive_is_modelled_as_a_pid_loop() -> None:
     """A PID position loop (complex P-PI roots, a filtered derivative) logged without effort:
     the loop identified with friction is of the PID family and the diagnosis brings the error

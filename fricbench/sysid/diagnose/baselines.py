@@ -768,7 +768,19 @@ def coulomb_starts(bounds: Bounds) -> tuple[float, ...]:
     of a loop and its friction has several minima; the grid spans them as it spans the
     limit's split. Those starts were a tuned field, ``friction_starts`` (0.3 and 1), until
     the held-out sets judged the grid (docs/diagnosis_method.md).
+
+    Raises
+    ------
+    ValueError
+        When no entry of the grid lies below the bound.
     """
     unraised = replace(bounds, friction_raise=1.0)
     top = get_effect("coulomb_friction").bounds(CL.I_FC, 0.0, unraised).hi / bounds.force
-    return tuple(g for g in defaults().limit_friction_grid if g < top)
+    grid = defaults().limit_friction_grid
+    starts = tuple(g for g in grid if g < top)
+    if not starts:
+        # a valid grid of the settings can still leave the fit no start: name the field
+        raise ValueError(f"limit_friction_grid={grid!r}: expected at least one entry below "
+                         f"{top:g}, the Coulomb level's bound in units of the run's force scale "
+                         "(the friction-aware fit starts from those entries)")
+    return starts
