@@ -41,7 +41,7 @@ PLUMBING = {
 
 # Tuned fields of DiagnoseSettings at the commit that gathered them (a ratchet: the count may
 # only fall; the one-method issue's target is 15).
-TUNED_AT_MOST = 21
+TUNED_AT_MOST = 20
 
 
 def _numeric(node: ast.expr) -> bool:

@@ -6,7 +6,7 @@ carries ``metadata["tuned"]``: True when its value was chosen on runs (the secon
 tuning seeds, EMPS, the shared DC motor), False when it is a convention, physics or a budget.
 The method is stated in ``docs/diagnosis_method.md``.
 
-**Tuned values: 21 today; the one-method issue's target is at most 15.**
+**Tuned values: 20 today; the one-method issue's target is at most 15.**
 ``tests/sysid/test_diagnose_settings.py`` counts them and fails when the count grows.
 
 Code with a settings object in hand (the closed-loop search, the open-loop search, the selection,
@@ -356,23 +356,6 @@ class DiagnoseSettings:
     floor_noise_factor : float
         Noise floor. Lower bound of the free-run noise floor, in units of the measured sensor
         noise. Tuned: set by hand with the first search (commit 90b5a80).
-    floor_factor : float
-        Noise floor and verdict. A residual within this multiple of the free-run noise floor is
-        at the floor: the verdict's "at the floor" (both loops: the open loop's against the
-        floor of a held-out free run; it had its own factor, 3 times the noise between a
-        periodic run's periods, ``periodic_floor_factor``, tuned on a simulated two-mass run,
-        until it had a floor); the mode comparison is skipped when the
-        effort's loop is there already; and with an effort, once no force effect cuts the
-        held-out effort error, force effects are judged on the free-run position until its
-        residual is at the floor; an effect that is not friction judged on the free-run
-        position must stand above it (its rms contribution at least this many floors: its
-        whole signature must stand above what the verdict calls "at the floor", else a
-        flexible effect that cuts the held-out error is fitting what the loop model misses;
-        friction needs no size, :func:`~fricbench.sysid.diagnose.search.min_position_size`).
-        One value for the four, which were three fields of the
-        same value (the verdict's, set by hand in commit 3998456; the position phase's, tuned
-        on the second simulator's tuning seeds in commit 8b6c1cf; the non-friction effect's
-        smallest size, tuned there in commit 665d33b). Tuned.
     explained_share : float
         Verdict and the compliance's evidence. "The larger part": the share of the residual's
         variance a structure must carry to be named; and a coupling's resonance must be where
@@ -383,7 +366,8 @@ class DiagnoseSettings:
         residual power lies in that band. Those were two tuned fields (the band's residual at
         most 0.5, the same bound; the share of the fall at least 0.25, where two-mass runs of
         an independent simulator gave 0.77 .. 0.93 and rigid runs a negative share); the
-        held-out sets judged the convention in their place. Not tuned: the larger part.
+        held-out sets judged the convention in their place. The same "larger part" says when a
+        residual is at the noise floor (:attr:`floor_factor`). Not tuned: the larger part.
     n_data_starts : int
         Open-loop search. Starts from the data kept (the best by free-run error) for an effect
         whose shape is fitted from the data. Not tuned: a budget.
@@ -519,8 +503,7 @@ class DiagnoseSettings:
 
     # -- the noise floor and the verdict ----------------------------------------------------------
     floor_noise_factor: float = _setting(3.0, tuned=True, check=_NONNEG)
-    floor_factor: float = _setting(1.5, tuned=True, check=_POSITIVE)
-    explained_share: float = _setting(0.5, tuned=False, check=_SHARE)
+    explained_share: float = _setting(0.5, tuned=False, check=_SHARE_OPEN)
     n_data_starts: int = _setting(2, tuned=False, check=_COUNT)
 
     # -- the signals -------------------------------------------------------------------------------
@@ -549,6 +532,34 @@ class DiagnoseSettings:
             value = getattr(self, f.name)
             if not f.metadata["valid"](value):
                 raise ValueError(f"{f.name}={value!r}: expected {f.metadata['expect']}")
+
+    @property
+    def floor_factor(self) -> float:
+        """A residual within this multiple of the free-run noise floor is at the floor:
+        ``1 / sqrt(1 - explained_share)``, the square root of two. A residual is the noise
+        (the floor's rms ``f``) plus what the model misses, independent of it; it is at the
+        floor when what the model misses is not the larger part of its variance
+        (:attr:`explained_share`), ``rms^2 - f^2 <= explained_share rms^2``.
+
+        Where it is read: the verdict's "at the floor" (both loops: the open loop's against
+        the floor of a held-out free run); the mode comparison is skipped when the effort's
+        loop is there already; with an effort, once no force effect cuts the held-out effort
+        error, force effects are judged on the free-run position until its residual is at
+        the floor; and an effect that is not friction judged on the free-run position must
+        stand above it (its rms contribution at least this many floors: its whole signature
+        must stand above what the verdict calls "at the floor", else a flexible effect that
+        cuts the held-out error is fitting what the loop model misses; friction needs no
+        size, :func:`~fricbench.sysid.diagnose.search.min_position_size`).
+
+        It was a tuned field of 1.5, one value for the four, which were three fields of the
+        same value (the verdict's, set by hand in commit 3998456; the position phase's, tuned
+        on the second simulator's tuning seeds in commit 8b6c1cf; the non-friction effect's
+        smallest size, tuned there in commit 665d33b), and before that the open loop's own
+        (3 times the noise between a periodic run's periods, ``periodic_floor_factor``, tuned
+        on a simulated two-mass run, until it had a floor); the held-out sets judged the
+        convention in its place (docs/diagnosis_method.md).
+        """
+        return 1.0 / math.sqrt(1.0 - self.explained_share)
 
     @property
     def heldout_gain(self) -> float:
