@@ -275,9 +275,17 @@ def test_a_nan_is_refused_by_every_setting(name: str) -> None:
     ("candidates", ("cogging", 1), "candidates=('cogging', 1): expected None (the whole "
                                    "library) or a tuple of effect names"),
     ("reach_quantile", 0.5, "reach_quantile=0.5: expected a quantile in (0.5, 1]"),
+    ("explained_share", 1.0, "explained_share=1.0: expected a share in (0, 1)"),
 ])
 def test_a_bad_value_names_the_field_the_value_and_what_was_expected(
         name: str, value: object, message: str) -> None:
     with pytest.raises(ValueError) as err:
         DiagnoseSettings(**{name: value})
     assert str(err.value) == message
+
+
+def test_the_noise_floor_factor_follows_the_larger_part() -> None:
+    """At the floor when what the model misses is not the larger part of the residual's
+    variance: ``rms^2 - f^2 <= explained_share rms^2``, so ``rms <= f / sqrt(1 - share)``."""
+    assert DEFAULT_SETTINGS.floor_factor == pytest.approx(math.sqrt(2.0))
+    assert DiagnoseSettings(explained_share=0.75).floor_factor == pytest.approx(2.0)
