@@ -119,7 +119,7 @@ INLINE_NUMBERS_AT_MOST = {
     "baselines.py": 28, "command.py": 4, "controllers.py": 16, "coverage.py": 5,
     "criterion.py": 2, "diagnosis.py": 18, "effects/__init__.py": 3, "effects/asymmetric.py": 5,
     "effects/backlash.py": 10, "effects/base.py": 8, "effects/cogging.py": 22,
-    "effects/cogging_harmonic.py": 4, "effects/compliance.py": 48, "effects/coulomb.py": 3,
+    "effects/cogging_harmonic.py": 4, "effects/compliance.py": 48, "effects/coulomb.py": 2,
     "effects/friction_profile.py": 10, "effects/offset.py": 1,
     "effects/position_dependent.py": 22, "effects/stribeck.py": 14, "effects/thermal.py": 10,
     "effects/thermal_strain.py": 4, "equation_error.py": 15, "leastsq.py": 2, "models.py": 35,

@@ -10,6 +10,7 @@ from fricbench.sysid.diagnose import closed_loop as CL
 from fricbench.sysid.diagnose.effects.base import Effect, Probe
 from fricbench.sysid.diagnose.parameters import Bounds, Param
 from fricbench.sysid.diagnose.prepared import Prepared
+from fricbench.sysid.diagnose.settings import defaults
 
 
 class CoulombFriction(Effect):
@@ -36,7 +37,7 @@ class CoulombFriction(Effect):
 
     def probes(self, p: np.ndarray, effects: Sequence[str], prep: Prepared, b: Bounds,
                y: np.ndarray) -> list[Probe]:
-        return [({CL.I_FC: 0.3 * b.force}, {})]
+        return [({CL.I_FC: min(defaults().limit_friction_grid) * b.force}, {})]
 
     def idim_columns(self, p: np.ndarray, effects: Sequence[str], x: np.ndarray,
                      v: np.ndarray) -> tuple[np.ndarray, tuple[int, ...], np.ndarray]:
